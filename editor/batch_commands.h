@@ -1,0 +1,26 @@
+#pragma once
+// The batch subcommands of `hdeform`: each registers its options on a CLI11 subcommand and
+// runs when it is selected. A run returns the exit code; it throws UsageError (exit 2) for a
+// wrong command line and InputError or SolveError (exit 1) for bad data.
+#include <CLI/CLI.hpp>
+
+namespace hdeform::cli {
+
+class BatchCommand {
+ public:
+  virtual ~BatchCommand() = default;
+  virtual CLI::App* add_to(CLI::App& app) = 0;
+  virtual int run() = 0;
+};
+
+}  // namespace hdeform::cli
+
+#include <memory>
+
+namespace hdeform::cli {
+
+std::unique_ptr<BatchCommand> make_edit_command();
+std::unique_ptr<BatchCommand> make_field_command();
+std::unique_ptr<BatchCommand> make_bench_command();
+
+}  // namespace hdeform::cli

@@ -1,0 +1,214 @@
+// hdeform bench: the figures of the README's Performance section, as one JSON object.
+#include <sys/resource.h>
+
+#include <chrono>
+#include <fstream>
+#include <random>
+
+#include "batch_commands.h"
+#include "cli_support.h"
+#include "hdeform/atomic_file.h"
+#include "hdeform/constraint_io.h"
+#include "hdeform/deformation_field.h"
+#include "hdeform/deformer.h"
+#include "hdeform/errors.h"
+#include "hdeform/laplacian.h"
+#include "hdeform/poisson.h"
+
+namespace hdeform::cli {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double since(Clock::time_point start) { return std::chrono::duration<double, std::milli>(Clock::now() - start).count(); }
+
+double peak_rss_mb() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  return static_cast<double>(usage.ru_maxrss) / 1024.0;
+}
+
+// Splits one handle into two by the median x of its vertices: the two-handle scenario.
+std::vector<std::vector<int>> split_by_x(const Mesh& mesh, std::vector<int> handle) {
+  std::sort(handle.begin(), handle.end(), [&](int a, int b) {
+    return mesh.positions(a, 0) != mesh.positions(b, 0) ? mesh.positions(a, 0) < mesh.positions(b, 0) : a < b;
+  });
+  const auto half = handle.begin() + static_cast<std::ptrdiff_t>(handle.size() / 2);
+  std::vector<int> first(handle.begin(), half), second(half, handle.end());
+  std::sort(first.begin(), first.end());
+  std::sort(second.begin(), second.end());
+  return {first, second};
+}
+
+class BenchCommand final : public BatchCommand {
+ public:
+  CLI::App* add_to(CLI::App& app) override {
+    auto* command = app.add_subcommand("bench", "Measure factorization, drag updates and solves (JSON on stdout)");
+    source_.add_options(*command);
+    command->add_option("--fixed", fixed_path_, "Fixed vertices: 0-based indices");
+    command->add_option("--handle", handle_path_, "Handle vertices: 0-based indices");
+    command->add_option("--transform", transform_path_, "Handle transform (as for edit)");
+    command->add_option("--steps", steps_, "Drag updates per measurement")->capture_default_str();
+    command->add_option("--threads", threads_, "Worker threads (default: all cores)");
+    command->add_option("--out", out_path_, "Also write the JSON report to this file");
+    command->add_flag("--quiet", quiet_, "No progress on stderr");
+    return command;
+  }
+
+  int run() override {
+    source_.require();
+    if (steps_ < 3) throw UsageError("--steps must be at least 3");
+    const SolverChoice solver{.threads = threads_};
+    const auto threads = solver.apply_threads();
+    const Progress progress(quiet_);
+
+    auto start = Clock::now();
+    LoadedMesh loaded = load_mesh(source_);
+    const double read_ms = since(start);
+    EditConstraints constraints;
+    HandleTransform transform;
+    if (!handle_path_.empty()) {
+      if (transform_path_.empty()) throw UsageError("--handle needs --transform");
+      constraints.handles = {read_vertex_indices(handle_path_, loaded.mesh.vertex_count())};
+      if (constraints.handles[0].empty()) throw InputError(handle_path_ + ": no vertex indices");
+      if (!fixed_path_.empty()) constraints.fixed = read_vertex_indices(fixed_path_, loaded.mesh.vertex_count());
+      transform = read_handle_transform(transform_path_);
+    } else if (loaded.demo_constraints) {
+      constraints = *loaded.demo_constraints;
+      transform = *loaded.demo_transform;
+    } else {
+      throw UsageError("give --handle, --transform (and --fixed), or a --shape");
+    }
+    const Mesh& mesh = loaded.mesh;
+
+    nlohmann::json report = {{"command", "bench"},
+                             {"mesh", source_.describe()},
+                             {"vertices", mesh.vertex_count()},
+                             {"triangles", mesh.triangle_count()},
+                             {"threads", solver.effective_threads()},
+                             {"steps", steps_},
+                             {"read_ms", read_ms}};
+
+    // One drag of `steps_` updates, after one warm-up update; per-update milliseconds.
+    auto drag = [&](Deformer& deformer, std::span<const HandleTransform> targets, Eigen::MatrixXd& positions) {
+      std::vector<HandleTransform> step(targets.size());
+      std::vector<double> samples;
+      for (int k = 0; k <= steps_; ++k) {
+        for (std::size_t h = 0; h < targets.size(); ++h) step[h] = targets[h].at_fraction(std::max(k, 1) / static_cast<double>(steps_));
+        const auto update_start = Clock::now();
+        deformer.deform(step, positions);
+        if (k > 0) samples.push_back(since(update_start));
+      }
+      return summarize(samples);
+    };
+
+    // Backends: factorization and agreement of the final result.
+    std::vector<Eigen::MatrixXd> results;
+    for (const auto backend : {SolverBackend::Eigen, SolverBackend::Cholmod}) {
+      if (!backend_available(backend)) continue;
+      progress("backend " + std::string(to_string(backend)));
+      Deformer deformer(mesh, constraints, {backend, default_schedule()});
+      Eigen::MatrixXd positions;
+      const auto update = drag(deformer, std::span(&transform, 1), positions);
+      report["backends"][std::string(to_string(backend))] = {
+          {"laplacian_ms", deformer.timings().laplacian_ms},
+          {"factor_ms", deformer.timings().factor_ms},
+          {"field_ms", deformer.timings().field_ms},
+          {"factor_nonzeros", deformer.system().factor().factor_nonzeros()},
+          {"update_ms", to_json(update)},
+      };
+      report["free"] = deformer.system().free_count();
+      results.push_back(std::move(positions));
+    }
+    if (results.size() == 2) {
+      report["backend_relative_difference"] = (results[0] - results[1]).norm() / results[0].norm();
+    }
+    report["default_backend"] = to_string(default_backend());
+    report["default_schedule"] = to_string(default_schedule());
+
+    // Schedules: one handle (3 columns) and two handles (5 field columns + 3).
+    const std::vector<HandleTransform> two_transforms{transform, transform.at_fraction(0.8)};
+    EditConstraints two_handles = constraints;
+    two_handles.handles = split_by_x(mesh, constraints.handles[0]);
+    for (const auto schedule : {SolveSchedule::Blocked, SolveSchedule::PerColumn, SolveSchedule::ThreadGroups}) {
+      const std::string name(to_string(schedule));
+      progress("schedule " + name);
+      Eigen::MatrixXd positions;
+      {
+        Deformer deformer(mesh, constraints, {default_backend(), schedule});
+        report["one_handle_update_ms"][name] = to_json(drag(deformer, std::span(&transform, 1), positions));
+        // The coordinate solve alone: 3 columns against the factor.
+        ColumnBlocks blocks(deformer.system().free_count(), 3, schedule);
+        std::mt19937 random(7);
+        std::uniform_real_distribution<double> uniform(-1.0, 1.0);
+        std::vector<double> samples;
+        for (int k = 0; k <= steps_; ++k) {
+          for (Eigen::Index row = 0; row < blocks.rows(); ++row) {
+            for (int c = 0; c < 3; ++c) blocks.at(row, c) = uniform(random);
+          }
+          const auto solve_start = Clock::now();
+          blocks.solve(deformer.system().factor());
+          if (k > 0) samples.push_back(since(solve_start));
+        }
+        report["solve_xyz_ms"][name] = to_json(summarize(samples));
+        if (schedule == default_schedule()) report["update_breakdown_ms"] = breakdown(deformer, transform);
+      }
+      {
+        Deformer deformer(mesh, two_handles, {default_backend(), schedule});
+        report["two_handle_update_ms"][name] = to_json(drag(deformer, two_transforms, positions));
+      }
+    }
+    report["peak_rss_mb"] = peak_rss_mb();
+
+    if (!out_path_.empty()) {
+      const std::string text = report.dump(2) + "\n";
+      write_file_atomically(out_path_, [&](std::ostream& out) { out << text; });
+    }
+    print_json_line(report);
+    return 0;
+  }
+
+ private:
+  // The stages of one single-handle update, run one at a time through the same functions that
+  // the update graph calls, to show where the time goes.
+  nlohmann::json breakdown(const Deformer& deformer, const HandleTransform& transform) const {
+    const Mesh& rest = deformer.rest();
+    const auto weights = cotangent_weights(rest);
+    const PoissonAssembler assembler(rest, weights, deformer.system());
+    const Eigen::VectorXd triangle_h = barycenter_values(deformer.field(), rest.triangles);
+    std::vector<Eigen::Matrix3d> maps(static_cast<std::size_t>(rest.triangle_count()));
+    ColumnBlocks rhs(deformer.system().free_count(), 3, default_schedule());
+    Eigen::MatrixXd positions = rest.positions;
+    std::vector<double> maps_ms, rhs_ms, solve_ms;
+    for (int k = 0; k <= steps_; ++k) {
+      auto start = Clock::now();
+      sample_blend_maps(triangle_h, transform, maps);
+      const double t_maps = since(start);
+      start = Clock::now();
+      assembler.assemble(maps, positions, rhs);
+      const double t_rhs = since(start);
+      start = Clock::now();
+      rhs.solve(deformer.system().factor());
+      const double t_solve = since(start);
+      if (k == 0) continue;
+      maps_ms.push_back(t_maps);
+      rhs_ms.push_back(t_rhs);
+      solve_ms.push_back(t_solve);
+    }
+    return {{"maps", summarize(maps_ms).median}, {"rhs", summarize(rhs_ms).median}, {"solve", summarize(solve_ms).median}};
+  }
+
+  MeshSource source_;
+  std::string fixed_path_;
+  std::string handle_path_;
+  std::string transform_path_;
+  std::string out_path_;
+  int steps_ = 30;
+  int threads_ = 0;
+  bool quiet_ = false;
+};
+
+}  // namespace
+
+std::unique_ptr<BatchCommand> make_bench_command() { return std::make_unique<BenchCommand>(); }
+
+}  // namespace hdeform::cli

@@ -1,0 +1,116 @@
+#include "cli_support.h"
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <iostream>
+
+#include "hdeform/errors.h"
+#include "hdeform/mesh_io.h"
+#include "hdeform/shapes.h"
+
+namespace hdeform::cli {
+
+void MeshSource::add_options(CLI::App& command) {
+  auto* mesh = command.add_option("--mesh", mesh_path, "Input mesh (Wavefront OBJ)");
+  auto* shape = command.add_option("--shape", shape_name, "Built-in shape instead of --mesh: cactus, bar, cylinder, sphere");
+  command.add_option("--resolution", resolution, "Built-in shape resolution (segments around; default 48)");
+  mesh->excludes(shape);
+  shape->excludes(mesh);
+}
+
+void MeshSource::require() const {
+  if (mesh_path.empty() && shape_name.empty()) throw UsageError("give --mesh FILE or --shape NAME");
+}
+
+std::string MeshSource::describe() const { return is_shape() ? "shape:" + shape_name : mesh_path; }
+
+LoadedMesh load_mesh(const MeshSource& source) {
+  LoadedMesh loaded;
+  if (source.is_shape()) {
+    const auto kind = parse_shape(source.shape_name);
+    if (!kind) throw UsageError("unknown shape '" + source.shape_name + "' (cactus, bar, cylinder, sphere)");
+    auto shape = make_shape(*kind, source.resolution > 0 ? source.resolution : kDefaultShapeResolution);
+    loaded.mesh = std::move(shape.mesh);
+    loaded.demo_constraints = std::move(shape.demo_constraints);
+    loaded.demo_transform = shape.demo_transform;
+  } else {
+    if (source.resolution > 0) throw UsageError("--resolution applies to --shape only");
+    loaded.mesh = read_obj(source.mesh_path);
+  }
+  return loaded;
+}
+
+void SolverChoice::add_options(CLI::App& command) {
+  command.add_option("--backend", backend, "Factorization backend: eigen or cholmod")->capture_default_str();
+  command.add_option("--schedule", schedule, "Column solves: blocked, per-column or thread-groups")->capture_default_str();
+  command.add_option("--threads", threads, "Worker threads (default: all cores)");
+}
+
+SolverBackend SolverChoice::parsed_backend() const {
+  const auto parsed = parse_backend(backend);
+  if (!parsed) throw UsageError("unknown backend '" + backend + "' (eigen, cholmod)");
+  if (!backend_available(*parsed)) throw UsageError("this build has no " + backend + " backend");
+  return *parsed;
+}
+
+SolveSchedule SolverChoice::parsed_schedule() const {
+  const auto parsed = parse_schedule(schedule);
+  if (!parsed) throw UsageError("unknown schedule '" + schedule + "' (blocked, per-column, thread-groups)");
+  return *parsed;
+}
+
+std::unique_ptr<tbb::global_control> SolverChoice::apply_threads() const {
+  if (threads < 0) throw UsageError("--threads must be positive");
+  if (threads == 0) return nullptr;
+  return std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
+}
+
+int SolverChoice::effective_threads() const {
+  return static_cast<int>(tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism));
+}
+
+void Progress::operator()(std::string_view message) const {
+  if (quiet_) return;
+  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+  char stamp[32];
+  std::snprintf(stamp, sizeof stamp, "[%6.2fs] ", seconds);
+  std::cerr << "hdeform: " << stamp << message << '\n';
+}
+
+void Progress::warn(const std::vector<std::string>& warnings) const {
+  for (const auto& line : warnings) std::cerr << "hdeform: warning: " << line << '\n';
+}
+
+void refuse_overwriting_inputs(const std::string& output, const std::vector<std::string>& inputs) {
+  std::error_code error;
+  for (const auto& input : inputs) {
+    if (input.empty()) continue;
+    if (input == output || std::filesystem::equivalent(input, output, error)) {
+      throw UsageError("refusing to overwrite the input " + input + " (choose another output path)");
+    }
+  }
+}
+
+void print_json_line(const nlohmann::json& value) { std::cout << value.dump() << std::endl; }
+
+Summary summarize(std::vector<double> samples) {
+  Summary summary;
+  if (samples.empty()) return summary;
+  std::sort(samples.begin(), samples.end());
+  const auto at = [&](double q) {
+    return samples[std::min(samples.size() - 1, static_cast<std::size_t>(std::ceil(q * static_cast<double>(samples.size()))) - (q > 0 ? 1 : 0))];
+  };
+  const auto n = samples.size();
+  summary.median = n % 2 == 1 ? samples[n / 2] : 0.5 * (samples[n / 2 - 1] + samples[n / 2]);
+  summary.p95 = at(0.95);
+  summary.max = samples.back();
+  return summary;
+}
+
+nlohmann::json to_json(const Summary& summary) {
+  auto round3 = [](double v) { return std::round(v * 1000.0) / 1000.0; };
+  return {{"median", round3(summary.median)}, {"p95", round3(summary.p95)}, {"max", round3(summary.max)}};
+}
+
+}  // namespace hdeform::cli

@@ -1,0 +1,90 @@
+#pragma once
+// What every batch command shares: where its mesh comes from, progress on stderr, thread
+// control, and the usage error that maps to exit code 2.
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+#include <tbb/global_control.h>
+
+#include <chrono>
+#include <memory>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "hdeform/constraints.h"
+#include "hdeform/handle_transform.h"
+#include "hdeform/mesh.h"
+#include "hdeform/sparse_cholesky.h"
+
+namespace hdeform::cli {
+
+// A command line that is wrong as such (exit code 2), as opposed to bad data (exit code 1).
+class UsageError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// --mesh FILE or --shape NAME [--resolution N].
+struct MeshSource {
+  std::string mesh_path;
+  std::string shape_name;
+  int resolution = 0;
+
+  void add_options(CLI::App& command);
+  // Throws UsageError unless exactly one source was given.
+  void require() const;
+  bool is_shape() const { return !shape_name.empty(); }
+  std::string describe() const;
+};
+
+// A loaded mesh; for a built-in shape also its demo edit.
+struct LoadedMesh {
+  Mesh mesh;
+  std::optional<EditConstraints> demo_constraints;
+  std::optional<HandleTransform> demo_transform;
+};
+LoadedMesh load_mesh(const MeshSource& source);
+
+// --backend, --schedule, --threads.
+struct SolverChoice {
+  std::string backend = std::string(to_string(default_backend()));
+  std::string schedule = std::string(to_string(default_schedule()));
+  int threads = 0;
+
+  void add_options(CLI::App& command);
+  SolverBackend parsed_backend() const;
+  SolveSchedule parsed_schedule() const;
+  // Limits TBB to --threads for the lifetime of the returned object (none when 0).
+  std::unique_ptr<tbb::global_control> apply_threads() const;
+  int effective_threads() const;
+};
+
+// Progress lines on stderr, with the time since the command started; silent with --quiet.
+class Progress {
+ public:
+  explicit Progress(bool quiet) : quiet_(quiet), start_(std::chrono::steady_clock::now()) {}
+  void operator()(std::string_view message) const;
+  void warn(const std::vector<std::string>& warnings) const;
+
+ private:
+  bool quiet_;
+  std::chrono::steady_clock::time_point start_;
+};
+
+// Refuses (UsageError) an output path that is one of the inputs: inputs are never overwritten.
+void refuse_overwriting_inputs(const std::string& output, const std::vector<std::string>& inputs);
+
+// Exactly one JSON object on one line of stdout.
+void print_json_line(const nlohmann::json& value);
+
+// Median and maximum of a sample (empty: zeros).
+struct Summary {
+  double median = 0.0;
+  double p95 = 0.0;
+  double max = 0.0;
+};
+Summary summarize(std::vector<double> samples);
+nlohmann::json to_json(const Summary& summary);
+
+}  // namespace hdeform::cli

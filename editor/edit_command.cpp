@@ -1,0 +1,141 @@
+// hdeform edit: the paper's editing pipeline in batch, optionally as a simulated drag.
+#include <chrono>
+#include <numbers>
+
+#include "batch_commands.h"
+#include "cli_support.h"
+#include "hdeform/constraint_io.h"
+#include "hdeform/deformer.h"
+#include "hdeform/errors.h"
+#include "hdeform/mesh_io.h"
+
+namespace hdeform::cli {
+namespace {
+
+class EditCommand final : public BatchCommand {
+ public:
+  CLI::App* add_to(CLI::App& app) override {
+    auto* command = app.add_subcommand("edit", "Deform a mesh: fixed vertices stay, handles follow their transforms");
+    source_.add_options(*command);
+    command->add_option("--fixed", fixed_path_, "Fixed vertices (sinks): 0-based indices");
+    command->add_option("--handle", handle_paths_, "Handle vertices (sources): 0-based indices; repeat for several handles");
+    command->add_option("--transform", transform_paths_,
+                        "Transform of the matching --handle: 12 numbers [A|t] row-major, or 'twist AX AY AZ PX PY PZ DEG [S]'");
+    command->add_option("--roi", roi_path_, "Region of interest: 0-based indices (default: the whole mesh)");
+    command->add_option("--out", out_path_, "Output mesh (OBJ)")->required();
+    command->add_option("--steps", steps_, "Simulate a drag: go from the identity to the transform in this many updates")
+        ->capture_default_str();
+    solver_.add_options(*command);
+    command->add_flag("--quiet", quiet_, "No progress or warnings on stderr");
+    return command;
+  }
+
+  int run() override {
+    source_.require();
+    if (handle_paths_.size() != transform_paths_.size()) {
+      throw UsageError("give one --transform per --handle (" + std::to_string(handle_paths_.size()) + " handles, " +
+                       std::to_string(transform_paths_.size()) + " transforms)");
+    }
+    if (steps_ < 1) throw UsageError("--steps must be at least 1");
+    std::vector<std::string> inputs{source_.mesh_path, fixed_path_, roi_path_};
+    inputs.insert(inputs.end(), handle_paths_.begin(), handle_paths_.end());
+    inputs.insert(inputs.end(), transform_paths_.begin(), transform_paths_.end());
+    refuse_overwriting_inputs(out_path_, inputs);
+    const auto threads = solver_.apply_threads();
+    const Progress progress(quiet_);
+    DeformerOptions options{solver_.parsed_backend(), solver_.parsed_schedule()};
+
+    progress("reading " + source_.describe());
+    LoadedMesh loaded = load_mesh(source_);
+    const auto vertex_count = loaded.mesh.vertex_count();
+    EditConstraints constraints;
+    std::vector<HandleTransform> transforms;
+    if (!handle_paths_.empty()) {
+      for (std::size_t h = 0; h < handle_paths_.size(); ++h) {
+        auto handle = read_vertex_indices(handle_paths_[h], vertex_count);
+        if (handle.empty()) throw InputError(handle_paths_[h] + ": no vertex indices (a handle needs at least one vertex)");
+        constraints.handles.push_back(std::move(handle));
+        transforms.push_back(read_handle_transform(transform_paths_[h]));
+      }
+      if (!fixed_path_.empty()) constraints.fixed = read_vertex_indices(fixed_path_, vertex_count);
+    } else if (loaded.demo_constraints) {
+      if (!fixed_path_.empty()) throw UsageError("--fixed without --handle: give the handles too, or neither for the demo edit");
+      constraints = *loaded.demo_constraints;
+      transforms = {*loaded.demo_transform};
+    } else {
+      throw UsageError("give at least one --handle FILE --transform FILE");
+    }
+    if (!roi_path_.empty()) constraints.region_of_interest = read_vertex_indices(roi_path_, vertex_count);
+
+    Deformer deformer(std::move(loaded.mesh), std::move(constraints), options, progress);
+    auto warnings = deformer.warnings();
+    if (transforms.size() > 1) {
+      for (std::size_t h = 0; h < transforms.size(); ++h) {
+        if (transforms[h].twist && std::abs(transforms[h].angle) > std::numbers::pi) {
+          warnings.push_back("handle " + std::to_string(h + 1) +
+                             ": with several handles rotations are interpolated as quaternions, so a twist beyond half a turn "
+                             "counts modulo a full turn");
+        }
+      }
+    }
+    progress.warn(warnings);
+
+    progress("deforming in " + std::to_string(steps_) + (steps_ == 1 ? " step" : " steps"));
+    Eigen::MatrixXd positions = deformer.rest().positions;
+    std::vector<HandleTransform> step_transforms(transforms.size());
+    std::vector<double> step_ms;
+    for (int step = 1; step <= steps_; ++step) {
+      const double fraction = static_cast<double>(step) / steps_;
+      for (std::size_t h = 0; h < transforms.size(); ++h) step_transforms[h] = transforms[h].at_fraction(fraction);
+      const auto start = std::chrono::steady_clock::now();
+      deformer.deform(step_transforms, positions);
+      step_ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
+    }
+    if (!positions.allFinite()) throw SolveError("the deformation produced non-finite positions");
+
+    progress("writing " + out_path_);
+    write_obj(out_path_, Mesh{positions, deformer.rest().triangles});
+
+    const auto& partition = deformer.partition();
+    const auto& timings = deformer.timings();
+    nlohmann::json report = {
+        {"command", "edit"},
+        {"mesh", source_.describe()},
+        {"vertices", deformer.rest().vertex_count()},
+        {"triangles", deformer.rest().triangle_count()},
+        {"free", partition.count(VertexRole::Free)},
+        {"fixed", partition.count(VertexRole::Fixed)},
+        {"handle_vertices", partition.count(VertexRole::Handle)},
+        {"handles", deformer.handle_count()},
+        {"backend", to_string(options.backend)},
+        {"schedule", to_string(options.schedule)},
+        {"threads", solver_.effective_threads()},
+        {"laplacian_ms", timings.laplacian_ms},
+        {"factor_ms", timings.factor_ms},
+        {"field_ms", timings.field_ms},
+        {"steps", steps_},
+        {"step_ms", to_json(summarize(step_ms))},
+        {"warnings", warnings},
+        {"output", out_path_},
+    };
+    print_json_line(report);
+    return 0;
+  }
+
+ private:
+  MeshSource source_;
+  SolverChoice solver_;
+  std::string fixed_path_;
+  std::string roi_path_;
+  std::string out_path_;
+  std::vector<std::string> handle_paths_;
+  std::vector<std::string> transform_paths_;
+  int steps_ = 1;
+  bool quiet_ = false;
+};
+
+}  // namespace
+
+std::unique_ptr<BatchCommand> make_edit_command() { return std::make_unique<EditCommand>(); }
+
+}  // namespace hdeform::cli

@@ -1,0 +1,60 @@
+// hdeform: detail-preserving surface deformation (Zayer et al., Eurographics 2005).
+#include <CLI/CLI.hpp>
+
+#include <iostream>
+#include <new>
+
+#include "batch_commands.h"
+#include "cli_support.h"
+#include "hdeform/errors.h"
+
+namespace {
+
+constexpr int kExitBadData = 1;
+constexpr int kExitUsage = 2;
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  using namespace hdeform;
+  CLI::App app{"hdeform: harmonic-guided surface deformation (Zayer, Rössl, Karni, Seidel 2005)"};
+  app.require_subcommand(1);
+  app.set_version_flag("--version", "hdeform 0.1.0");
+
+  std::vector<std::pair<CLI::App*, std::unique_ptr<cli::BatchCommand>>> commands;
+  for (auto make : {cli::make_edit_command, cli::make_field_command, cli::make_bench_command}) {
+    auto command = make();
+    CLI::App* sub = command->add_to(app);
+    commands.emplace_back(sub, std::move(command));
+  }
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& help) {
+    return app.exit(help);
+  } catch (const CLI::CallForVersion& version) {
+    return app.exit(version);
+  } catch (const CLI::ParseError& error) {
+    app.exit(error);
+    return kExitUsage;
+  }
+
+  try {
+    for (auto& [sub, command] : commands) {
+      if (sub->parsed()) return command->run();
+    }
+  } catch (const cli::UsageError& error) {
+    std::cerr << "hdeform: usage error: " << error.what() << "\n(see hdeform --help)\n";
+    return kExitUsage;
+  } catch (const InputError& error) {
+    std::cerr << "hdeform: error: " << error.what() << '\n';
+    return kExitBadData;
+  } catch (const SolveError& error) {
+    std::cerr << "hdeform: error: " << error.what() << '\n';
+    return kExitBadData;
+  } catch (const std::bad_alloc&) {
+    std::cerr << "hdeform: error: out of memory\n";
+    return kExitBadData;
+  }
+  return kExitUsage;
+}

@@ -1,0 +1,59 @@
+#pragma once
+// Deformation fields (paper §5 and §7): a rotation (unit quaternion) and a uniform scale per
+// vertex, identity at the sinks and the handle's own at its vertices, and the per-triangle maps
+// T_t = s_t R_t sampled at the barycenters that the Poisson reconstruction applies.
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <span>
+#include <vector>
+
+#include "hdeform/constraints.h"
+#include "hdeform/dirichlet_system.h"
+#include "hdeform/handle_transform.h"
+
+namespace hdeform {
+
+struct DeformationField {
+  Eigen::MatrixXd rotation;  // n × 4 unit quaternions, columns (w, x, y, z)
+  Eigen::VectorXd scale;     // n
+};
+
+// The rotation a fraction h of the way from the identity to the handle's: slerp(1, q, h), i.e.
+// the angle h·θ about the handle's axis — for a twist θ may be several turns and the angle is
+// blended as such, where a slerp would see only θ mod 2π.
+inline Eigen::Quaterniond blend_rotation(const HandleTransform& handle, double h) {
+  return Eigen::Quaterniond(Eigen::AngleAxisd(h * handle.angle, handle.axis));
+}
+inline double blend_scale(const HandleTransform& handle, double h) { return 1.0 + h * (handle.scale - 1.0); }
+
+// §5, one handle: each vertex blends by its field value h.
+DeformationField blend_field(const Eigen::VectorXd& h, const HandleTransform& handle);
+
+// Number of scalar fields interpolated for several handles: q0..q3 and s.
+inline constexpr int kInterpolatedComponents = 5;
+
+using InterpolatedValue = Eigen::Matrix<double, 1, kInterpolatedComponents>;
+
+// The Dirichlet value of the §7 fields at a handle's vertices: its quaternion, sign-aligned to
+// the identity's hemisphere (w ≥ 0) that the sinks hold, and its scale.
+InterpolatedValue interpolation_value(const HandleTransform& handle);
+// ... and at fixed vertices.
+inline InterpolatedValue identity_interpolation_value() { return (InterpolatedValue() << 1.0, 0.0, 0.0, 0.0, 1.0).finished(); }
+
+// §7, several handles: q0..q3 and s interpolated harmonically from the boundary values above,
+// quaternions normalised after.
+DeformationField interpolate_field(const DirichletSystem& system, const VertexPartition& partition,
+                                   std::span<const HandleTransform> handles);
+
+// T_t = s_t R_t at each triangle's barycenter, where a linear field takes the mean of its corners.
+// One handle: from the barycentric field value h_t. Allocation-free when `maps` has m entries.
+void sample_blend_maps(const Eigen::VectorXd& triangle_h, const HandleTransform& handle, std::vector<Eigen::Matrix3d>& maps);
+// Several handles: from the interpolated components at the corners (n × 5, row-major: one row
+// per vertex), normalising the mean quaternion.
+void sample_interpolated_maps(const Eigen::Matrix<double, Eigen::Dynamic, kInterpolatedComponents, Eigen::RowMajor>& components,
+                              const Eigen::MatrixXi& triangles, std::vector<Eigen::Matrix3d>& maps);
+
+// h at each triangle's barycenter: the mean of its corners.
+Eigen::VectorXd barycenter_values(const Eigen::VectorXd& vertex_values, const Eigen::MatrixXi& triangles);
+
+}  // namespace hdeform

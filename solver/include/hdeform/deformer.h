@@ -1,0 +1,81 @@
+#pragma once
+// The editing engine (paper §5, §7): everything that depends only on the mesh and the vertex
+// classes is computed once — Laplacian, factorization of L_ff, harmonic field, rest gradients —
+// and each handle transform after that costs a deformation field, a right-hand side and
+// back-substitution. This is the object the editor and the batch commands drive.
+#include <Eigen/Core>
+#include <functional>
+#include <memory>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "hdeform/constraints.h"
+#include "hdeform/dirichlet_system.h"
+#include "hdeform/handle_transform.h"
+#include "hdeform/mesh.h"
+#include "hdeform/mesh_check.h"
+#include "hdeform/sparse_cholesky.h"
+
+namespace hdeform {
+
+struct DeformerOptions {
+  SolverBackend backend = default_backend();
+  SolveSchedule schedule = default_schedule();
+};
+
+struct DeformerTimings {  // set-up, milliseconds
+  double laplacian_ms = 0.0;
+  double factor_ms = 0.0;  // analyse + numeric factorization of L_ff
+  double field_ms = 0.0;   // harmonic field solve
+};
+
+// Called from the constructing thread before each set-up stage, with a line for the user.
+using ProgressCallback = std::function<void(std::string_view stage)>;
+
+class Deformer {
+ public:
+  // Throws InputError for invalid constraints (no handle, bad indices) and SolveError when the
+  // factorization fails.
+  Deformer(Mesh rest, EditConstraints constraints, DeformerOptions options = {}, const ProgressCallback& progress = {});
+  ~Deformer();
+  Deformer(const Deformer&) = delete;
+  Deformer& operator=(const Deformer&) = delete;
+
+  const Mesh& rest() const { return rest_; }
+  const EditConstraints& constraints() const { return constraints_; }
+  const VertexPartition& partition() const { return partition_; }
+  const MeshInspection& inspection() const { return inspection_; }
+  const DirichletSystem& system() const { return *system_; }
+  const DeformerOptions& options() const { return options_; }
+  const DeformerTimings& timings() const { return timings_; }
+  // The harmonic field h: 1 at every handle vertex, 0 at fixed vertices.
+  const Eigen::VectorXd& field() const { return field_; }
+  std::size_t handle_count() const { return constraints_.handles.size(); }
+  // Mesh and partition findings the user should see.
+  std::vector<std::string> warnings() const;
+
+  // Deformed positions (n×3, resized if needed) for one transform per handle: one handle blends
+  // its rotation and scale along h (§5), several interpolate q0..q3 and s harmonically (§7).
+  // Not reentrant. Allocation-free once `positions` has the right size.
+  void deform(std::span<const HandleTransform> transforms, Eigen::MatrixXd& positions);
+
+ private:
+  struct UpdateGraph;
+
+  Mesh rest_;
+  EditConstraints constraints_;
+  DeformerOptions options_;
+  DeformerTimings timings_;
+  CotangentWeights weights_;
+  MeshInspection inspection_;
+  VertexPartition partition_;
+  std::unique_ptr<DirichletSystem> system_;
+  std::unique_ptr<class PoissonAssembler> assembler_;
+  Eigen::VectorXd field_;
+  Eigen::VectorXd triangle_field_;
+  std::unique_ptr<UpdateGraph> graph_;
+};
+
+}  // namespace hdeform

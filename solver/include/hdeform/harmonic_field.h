@@ -1,0 +1,14 @@
+#pragma once
+// Harmonic guidance field (paper §5): 1 at the handle vertices (sources), 0 at the fixed vertices
+// (sinks), harmonic elsewhere: L_ff h_f = −L_fc h_c. By the maximum principle it lies in [0, 1]
+// with no interior extremum.
+#include <Eigen/Core>
+
+#include "hdeform/constraints.h"
+#include "hdeform/dirichlet_system.h"
+
+namespace hdeform {
+
+Eigen::VectorXd harmonic_field(const DirichletSystem& system, const VertexPartition& partition);
+
+}  // namespace hdeform

@@ -1,0 +1,105 @@
+#pragma once
+// One sparse Cholesky factorization, P A Pᵀ = L Lᵀ, computed once and reused for every
+// right-hand side: the harmonic field, the quaternion components and x, y, z.
+//
+// The backends differ only in how L is computed (ordering and numeric factorization). Solves
+// always run through one kernel that reads L once per triangular sweep for all the columns of a
+// block: the solve is memory-bound, so k columns in one pass cost far less than k passes.
+#include <Eigen/Core>
+#include <Eigen/SparseCore>
+#include <optional>
+#include <string_view>
+#include <vector>
+
+namespace hdeform {
+
+enum class SolverBackend {
+  Eigen,    // Eigen SimplicialLLT with AMD ordering
+  Cholmod,  // CHOLMOD supernodal LLT through Eigen's CholmodSupport
+};
+
+std::string_view to_string(SolverBackend backend);
+std::optional<SolverBackend> parse_backend(std::string_view name);
+bool backend_available(SolverBackend backend);
+// The backend measured faster on buddha-206k (see README, Performance).
+SolverBackend default_backend();
+
+class SparseCholesky {
+ public:
+  // Analyses and factors a symmetric positive definite matrix (both triangles stored).
+  // Throws SolveError when it is not positive definite or the factorization fails.
+  void factor(const Eigen::SparseMatrix<double>& matrix, SolverBackend backend);
+
+  bool empty() const { return lower_.rows() == 0; }
+  Eigen::Index size() const { return lower_.rows(); }
+  SolverBackend backend() const { return backend_; }
+  Eigen::Index factor_nonzeros() const { return lower_.nonZeros(); }
+
+  // factor_row()[i]: the row of unknown i in factor order.
+  const std::vector<int>& factor_row() const { return factor_row_; }
+
+  // Solves A X = B in place for a row-major block in factor order: row factor_row()[i] holds the
+  // `columns` values of unknown i, consecutive rows `stride` doubles apart. Allocation-free;
+  // safe to call concurrently on distinct blocks.
+  void solve_block(double* block, int columns, int stride) const;
+
+  // Convenience (allocates): X = A⁻¹ B with B and X in natural order, column-major.
+  Eigen::MatrixXd solve(const Eigen::MatrixXd& rhs) const;
+
+ private:
+  Eigen::SparseMatrix<double> lower_;  // CSC, diagonal first in each column
+  std::vector<int> factor_row_;
+  SolverBackend backend_ = SolverBackend::Eigen;
+};
+
+// How the columns of one solve are spread over threads. Each group is one row-major block solved
+// by one pass over the factor; groups run concurrently.
+enum class SolveSchedule {
+  Blocked,       // all columns in one group
+  PerColumn,     // one group per column
+  ThreadGroups,  // as many groups as threads, columns split evenly
+};
+
+std::string_view to_string(SolveSchedule schedule);
+std::optional<SolveSchedule> parse_schedule(std::string_view name);
+// The schedule measured fastest for the drag update (see README, Performance).
+SolveSchedule default_schedule();
+
+// k right-hand-side columns in factor order, split into groups per a schedule.
+class ColumnBlocks {
+ public:
+  ColumnBlocks() = default;
+  // `threads` only matters for ThreadGroups (0: the current TBB concurrency).
+  ColumnBlocks(Eigen::Index rows, int columns, SolveSchedule schedule, int threads = 0);
+
+  Eigen::Index rows() const { return rows_; }
+  int columns() const { return static_cast<int>(group_of_column_.size()); }
+  int groups() const { return static_cast<int>(groups_.size()); }
+
+  double& at(Eigen::Index row, int column) {
+    const auto& slot = group_of_column_[static_cast<std::size_t>(column)];
+    auto& group = groups_[static_cast<std::size_t>(slot.group)];
+    return group.values[static_cast<std::size_t>(row * group.columns + slot.offset)];
+  }
+  double at(Eigen::Index row, int column) const { return const_cast<ColumnBlocks*>(this)->at(row, column); }
+
+  // Solves one group against the factor (one pass over it for all the group's columns).
+  void solve_group(const SparseCholesky& factor, int group);
+  // Solves every group, groups concurrently.
+  void solve(const SparseCholesky& factor);
+
+ private:
+  struct Group {
+    int columns = 0;
+    std::vector<double> values;  // rows × columns, row-major
+  };
+  struct Slot {
+    int group = 0;
+    int offset = 0;
+  };
+  Eigen::Index rows_ = 0;
+  std::vector<Group> groups_;
+  std::vector<Slot> group_of_column_;
+};
+
+}  // namespace hdeform

@@ -1,0 +1,67 @@
+#pragma once
+// Runs Deformer updates off the caller's thread (the editor's render thread never solves).
+// When transforms arrive faster than updates finish, the newest wins: a request replaces the
+// one still waiting instead of queueing behind it, so the result on screen is never stale by
+// more than the update in flight.
+#include <Eigen/Core>
+#include <condition_variable>
+#include <cstdint>
+#include <exception>
+#include <functional>
+#include <mutex>
+#include <span>
+#include <vector>
+
+#include <tbb/task_arena.h>
+
+#include "hdeform/deformer.h"
+
+namespace hdeform {
+
+class UpdatePipeline {
+ public:
+  struct Result {
+    const Eigen::MatrixXd& positions;
+    std::uint64_t request;  // the number submit() returned for these transforms
+    double update_ms;
+  };
+  // Called on a worker thread after each finished update; must not block for long.
+  using Publish = std::function<void(const Result&)>;
+
+  // Keeps references to both; the deformer must outlive the pipeline.
+  UpdatePipeline(Deformer& deformer, Publish publish);
+  ~UpdatePipeline();  // waits for the update in flight
+  UpdatePipeline(const UpdatePipeline&) = delete;
+  UpdatePipeline& operator=(const UpdatePipeline&) = delete;
+
+  // Posts transforms (one per handle); returns at once with the request's number.
+  std::uint64_t submit(std::span<const HandleTransform> transforms);
+  // Blocks until no update is waiting or running.
+  void wait_idle();
+
+  std::uint64_t finished_updates() const;
+  std::uint64_t superseded_requests() const;  // replaced by a newer one before they started
+  // The failure of the latest update that threw (the previous result stays published), or null.
+  std::exception_ptr last_error() const;
+
+ private:
+  void drain();
+
+  Deformer& deformer_;
+  Publish publish_;
+  mutable std::mutex mutex_;
+  std::condition_variable idle_;
+  std::vector<HandleTransform> pending_;
+  std::vector<HandleTransform> current_;
+  bool has_pending_ = false;
+  bool running_ = false;
+  std::uint64_t submitted_ = 0;
+  std::uint64_t pending_request_ = 0;
+  std::uint64_t finished_ = 0;
+  std::uint64_t superseded_ = 0;
+  std::exception_ptr error_;
+  Eigen::MatrixXd positions_;
+  tbb::task_arena arena_;
+};
+
+}  // namespace hdeform

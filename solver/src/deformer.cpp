@@ -1,0 +1,200 @@
+#include "hdeform/deformer.h"
+
+#include <tbb/flow_graph.h>
+#include <tbb/parallel_for.h>
+
+#include <chrono>
+#include <stdexcept>
+
+#include "hdeform/deformation_field.h"
+#include "hdeform/errors.h"
+#include "hdeform/harmonic_field.h"
+#include "hdeform/laplacian.h"
+#include "hdeform/poisson.h"
+
+namespace hdeform {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double milliseconds_since(Clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+using Message = tbb::flow::continue_msg;
+using Node = tbb::flow::continue_node<Message>;
+constexpr std::size_t kRowGrain = 1024;
+
+}  // namespace
+
+// The per-update task graph. One handle:
+//   start ─┬─► maps (blend along h) ──────────┬─► rhs ─► solve group 1..G ─► write free rows
+//          └─► constrained targets ───────────┘
+// Several handles: start ─► field rhs ─► field solve groups ─► components ─► maps ─► ...
+// Solve groups run concurrently against the one factor (SolveSchedule decides the grouping).
+struct Deformer::UpdateGraph {
+  // Inputs of the update in flight.
+  std::span<const HandleTransform> transforms;
+  Eigen::MatrixXd* positions = nullptr;
+
+  std::vector<Eigen::Matrix3d> maps;
+  ColumnBlocks coordinates;
+  ColumnBlocks fields;
+  Eigen::Matrix<double, Eigen::Dynamic, kInterpolatedComponents, Eigen::RowMajor> components;
+  std::vector<InterpolatedValue> handle_values;
+
+  tbb::flow::graph graph;
+  tbb::flow::broadcast_node<Message> start{graph};
+  std::vector<std::unique_ptr<Node>> nodes;
+
+  template <class Body>
+  Node& add(Body body) {
+    nodes.push_back(std::make_unique<Node>(graph, [body](const Message&) { body(); }));
+    return *nodes.back();
+  }
+};
+
+Deformer::Deformer(Mesh rest, EditConstraints constraints, DeformerOptions options, const ProgressCallback& progress)
+    : rest_(std::move(rest)), constraints_(std::move(constraints)), options_(options) {
+  auto report = [&](std::string_view stage) {
+    if (progress) progress(stage);
+  };
+  if (constraints_.handles.empty()) throw InputError("no handle: at least one handle vertex list is needed");
+
+  report("building the cotangent Laplacian");
+  auto start = Clock::now();
+  weights_ = cotangent_weights(rest_);
+  inspection_ = inspect_mesh(rest_, weights_);
+  partition_ = partition_vertices(rest_, weights_, constraints_);
+  const auto laplacian = cotangent_laplacian(rest_, weights_);
+  timings_.laplacian_ms = milliseconds_since(start);
+
+  report("factoring " + std::to_string(partition_.free_vertices.size()) + " unknowns (" +
+         std::string(to_string(options_.backend)) + ")");
+  system_ = std::make_unique<DirichletSystem>(laplacian, partition_, options_.backend);
+  timings_.factor_ms = system_->factor_ms();
+
+  report("solving the harmonic field");
+  start = Clock::now();
+  field_ = harmonic_field(*system_, partition_);
+  timings_.field_ms = milliseconds_since(start);
+  triangle_field_ = barycenter_values(field_, rest_.triangles);
+  assembler_ = std::make_unique<PoissonAssembler>(rest_, weights_, *system_);
+
+  // The update graph and every buffer it touches, allocated once.
+  graph_ = std::make_unique<UpdateGraph>();
+  auto& g = *graph_;
+  const auto free_rows = system_->free_count();
+  const auto vertex_count = rest_.vertex_count();
+  g.maps.resize(static_cast<std::size_t>(rest_.triangle_count()));
+  g.coordinates = ColumnBlocks(free_rows, 3, options_.schedule);
+
+  Node& targets = g.add([this] {
+    auto& positions = *graph_->positions;
+    const auto& transforms = graph_->transforms;
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, partition_.role.size(), kRowGrain), [&](const auto& range) {
+      for (std::size_t v = range.begin(); v != range.end(); ++v) {
+        const auto row = static_cast<Eigen::Index>(v);
+        switch (partition_.role[v]) {
+          case VertexRole::Fixed: positions.row(row) = rest_.positions.row(row); break;
+          case VertexRole::Handle:
+            positions.row(row) =
+                transforms[static_cast<std::size_t>(partition_.handle_index[v])].apply(rest_.positions.row(row).transpose()).transpose();
+            break;
+          case VertexRole::Free: break;
+        }
+      }
+    });
+  });
+  tbb::flow::make_edge(g.start, targets);
+
+  Node* maps_node = nullptr;
+  if (handle_count() == 1) {
+    maps_node = &g.add([this] { sample_blend_maps(triangle_field_, graph_->transforms[0], graph_->maps); });
+    tbb::flow::make_edge(g.start, *maps_node);
+  } else {
+    g.fields = ColumnBlocks(free_rows, kInterpolatedComponents, options_.schedule);
+    g.components.resize(vertex_count, kInterpolatedComponents);
+    g.handle_values.resize(handle_count());
+    Node& field_rhs = g.add([this] {
+      auto& u = *graph_;
+      for (std::size_t k = 0; k < u.handle_values.size(); ++k) u.handle_values[k] = interpolation_value(u.transforms[k]);
+      const auto identity = identity_interpolation_value();
+      for (const int v : partition_.constrained_vertices) {
+        const auto vertex = static_cast<std::size_t>(v);
+        u.components.row(v) = partition_.role[vertex] == VertexRole::Handle
+                                  ? u.handle_values[static_cast<std::size_t>(partition_.handle_index[vertex])]
+                                  : identity;
+      }
+      tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, system_->free_count(), kRowGrain), [&](const auto& range) {
+        for (Eigen::Index row = range.begin(); row != range.end(); ++row) {
+          InterpolatedValue value = InterpolatedValue::Zero();
+          for (const auto& entry : system_->coupling(static_cast<int>(row))) value -= entry.weight * u.components.row(entry.vertex);
+          for (int c = 0; c < kInterpolatedComponents; ++c) u.fields.at(row, c) = value(c);
+        }
+      });
+    });
+    tbb::flow::make_edge(g.start, field_rhs);
+    Node& components = g.add([this] {
+      auto& u = *graph_;
+      tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, system_->free_count(), kRowGrain), [&](const auto& range) {
+        for (Eigen::Index row = range.begin(); row != range.end(); ++row) {
+          const int vertex = system_->vertex_of_row()[static_cast<std::size_t>(row)];
+          for (int c = 0; c < kInterpolatedComponents; ++c) u.components(vertex, c) = u.fields.at(row, c);
+        }
+      });
+    });
+    for (int group = 0; group < g.fields.groups(); ++group) {
+      Node& solve = g.add([this, group] { graph_->fields.solve_group(system_->factor(), group); });
+      tbb::flow::make_edge(field_rhs, solve);
+      tbb::flow::make_edge(solve, components);
+    }
+    maps_node = &g.add([this] { sample_interpolated_maps(graph_->components, rest_.triangles, graph_->maps); });
+    tbb::flow::make_edge(components, *maps_node);
+  }
+
+  Node& rhs = g.add([this] { assembler_->assemble(graph_->maps, *graph_->positions, graph_->coordinates); });
+  tbb::flow::make_edge(*maps_node, rhs);
+  tbb::flow::make_edge(targets, rhs);
+  Node& write = g.add([this] {
+    auto& u = *graph_;
+    tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, system_->free_count(), kRowGrain), [&](const auto& range) {
+      for (Eigen::Index row = range.begin(); row != range.end(); ++row) {
+        const int vertex = system_->vertex_of_row()[static_cast<std::size_t>(row)];
+        for (int c = 0; c < 3; ++c) (*u.positions)(vertex, c) = u.coordinates.at(row, c);
+      }
+    });
+  });
+  for (int group = 0; group < g.coordinates.groups(); ++group) {
+    Node& solve = g.add([this, group] { graph_->coordinates.solve_group(system_->factor(), group); });
+    tbb::flow::make_edge(rhs, solve);
+    tbb::flow::make_edge(solve, write);
+  }
+}
+
+Deformer::~Deformer() {
+  if (graph_) graph_->graph.wait_for_all();
+}
+
+std::vector<std::string> Deformer::warnings() const {
+  auto lines = inspection_.warnings();
+  lines.insert(lines.end(), partition_.warnings.begin(), partition_.warnings.end());
+  if (partition_.count(VertexRole::Fixed) == 0) {
+    lines.emplace_back(handle_count() == 1 ? "no fixed vertices: the whole mesh follows the handle rigidly"
+                                           : "no fixed vertices: the handles' motions are blended over the whole mesh");
+  }
+  return lines;
+}
+
+void Deformer::deform(std::span<const HandleTransform> transforms, Eigen::MatrixXd& positions) {
+  if (transforms.size() != handle_count()) {
+    throw std::invalid_argument("deform: " + std::to_string(transforms.size()) + " transforms for " +
+                                std::to_string(handle_count()) + " handles");
+  }
+  positions.resize(rest_.vertex_count(), 3);
+  graph_->transforms = transforms;
+  graph_->positions = &positions;
+  graph_->start.try_put(Message());
+  graph_->graph.wait_for_all();
+}
+
+}  // namespace hdeform

@@ -1,0 +1,78 @@
+#include "hdeform/dirichlet_system.h"
+
+#include <tbb/parallel_for.h>
+
+#include <chrono>
+
+namespace hdeform {
+
+DirichletSystem::DirichletSystem(const Eigen::SparseMatrix<double>& laplacian, const VertexPartition& partition,
+                                 SolverBackend backend) {
+  const auto n = static_cast<std::size_t>(laplacian.rows());
+  const auto& free = partition.free_vertices;
+  std::vector<int> free_index(n, -1);
+  for (std::size_t k = 0; k < free.size(); ++k) free_index[static_cast<std::size_t>(free[k])] = static_cast<int>(k);
+
+  // L_ff in free-vertex order; columns of the symmetric L are its rows.
+  Eigen::SparseMatrix<double> free_block(static_cast<Eigen::Index>(free.size()), static_cast<Eigen::Index>(free.size()));
+  {
+    Eigen::VectorXi per_column(static_cast<Eigen::Index>(free.size()));
+    for (std::size_t k = 0; k < free.size(); ++k) {
+      per_column(static_cast<Eigen::Index>(k)) = static_cast<int>(laplacian.innerVector(free[k]).nonZeros());
+    }
+    free_block.reserve(per_column);
+    for (std::size_t k = 0; k < free.size(); ++k) {
+      for (Eigen::SparseMatrix<double>::InnerIterator it(laplacian, free[k]); it; ++it) {
+        const int row = free_index[static_cast<std::size_t>(it.row())];
+        if (row >= 0) free_block.insert(row, static_cast<Eigen::Index>(k)) = it.value();
+      }
+    }
+    free_block.makeCompressed();
+  }
+  const auto factor_start = std::chrono::steady_clock::now();
+  factor_.factor(free_block, backend);
+  factor_ms_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - factor_start).count();
+
+  row_of_vertex_.assign(n, -1);
+  vertex_of_row_.assign(free.size(), -1);
+  for (std::size_t k = 0; k < free.size(); ++k) {
+    const int row = free.empty() ? 0 : factor_.factor_row()[k];
+    row_of_vertex_[static_cast<std::size_t>(free[k])] = row;
+    vertex_of_row_[static_cast<std::size_t>(row)] = free[k];
+  }
+
+  coupling_start_.assign(free.size() + 1, 0);
+  for (std::size_t row = 0; row < free.size(); ++row) {
+    std::size_t count = 0;
+    for (Eigen::SparseMatrix<double>::InnerIterator it(laplacian, vertex_of_row_[row]); it; ++it) {
+      if (free_index[static_cast<std::size_t>(it.row())] < 0) ++count;
+    }
+    coupling_start_[row + 1] = coupling_start_[row] + count;
+  }
+  coupling_.resize(coupling_start_.back());
+  for (std::size_t row = 0; row < free.size(); ++row) {
+    std::size_t slot = coupling_start_[row];
+    for (Eigen::SparseMatrix<double>::InnerIterator it(laplacian, vertex_of_row_[row]); it; ++it) {
+      if (free_index[static_cast<std::size_t>(it.row())] < 0) coupling_[slot++] = {static_cast<int>(it.row()), it.value()};
+    }
+  }
+}
+
+void DirichletSystem::solve(Eigen::MatrixXd& values, const Eigen::MatrixXd* source) const {
+  const int columns = static_cast<int>(values.cols());
+  const auto rows = free_count();
+  if (rows == 0 || columns == 0) return;
+  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> block(rows, columns);
+  tbb::parallel_for(Eigen::Index{0}, rows, [&](Eigen::Index row) {
+    const int vertex = vertex_of_row_[static_cast<std::size_t>(row)];
+    for (int c = 0; c < columns; ++c) {
+      double value = source != nullptr ? (*source)(vertex, c) : 0.0;
+      for (const auto& entry : coupling(static_cast<int>(row))) value -= entry.weight * values(entry.vertex, c);
+      block(row, c) = value;
+    }
+  });
+  factor_.solve_block(block.data(), columns, columns);
+  for (Eigen::Index row = 0; row < rows; ++row) values.row(vertex_of_row_[static_cast<std::size_t>(row)]) = block.row(row);
+}
+
+}  // namespace hdeform

@@ -1,0 +1,67 @@
+#include "hdeform/poisson.h"
+
+#include <tbb/parallel_for.h>
+
+namespace hdeform {
+
+PoissonAssembler::PoissonAssembler(const Mesh& rest, const CotangentWeights& weights, const DirichletSystem& system)
+    : system_(system) {
+  const auto& row_of_vertex = system.row_of_vertex();
+  const auto rows = static_cast<std::size_t>(system.free_count());
+  corner_start_.assign(rows + 1, 0);
+  auto active = [&](Eigen::Index t) { return weights.kind[static_cast<std::size_t>(t)] != ElementKind::Ignored; };
+  for (Eigen::Index t = 0; t < rest.triangle_count(); ++t) {
+    if (!active(t)) continue;
+    for (int k = 0; k < 3; ++k) {
+      const int row = row_of_vertex[static_cast<std::size_t>(rest.triangles(t, k))];
+      if (row >= 0) ++corner_start_[static_cast<std::size_t>(row) + 1];
+    }
+  }
+  for (std::size_t r = 0; r < rows; ++r) corner_start_[r + 1] += corner_start_[r];
+  corners_.resize(corner_start_.back());
+  std::vector<std::size_t> fill(corner_start_.begin(), corner_start_.end() - 1);
+  for (Eigen::Index t = 0; t < rest.triangle_count(); ++t) {
+    if (!active(t)) continue;
+    for (int k = 0; k < 3; ++k) {
+      const int row = row_of_vertex[static_cast<std::size_t>(rest.triangles(t, k))];
+      if (row < 0) continue;
+      // Corner k's edges are opposite corners k+2 (edge k,k+1) and k+1 (edge k,k+2).
+      const Eigen::Vector3d p = rest.positions.row(rest.triangles(t, k));
+      const Eigen::Vector3d next = rest.positions.row(rest.triangles(t, (k + 1) % 3));
+      const Eigen::Vector3d previous = rest.positions.row(rest.triangles(t, (k + 2) % 3));
+      const Eigen::Vector3d gradient = weights.half_cotangent(t, (k + 2) % 3) * (p - next) +
+                                       weights.half_cotangent(t, (k + 1) % 3) * (p - previous);
+      corners_[fill[static_cast<std::size_t>(row)]++] = {static_cast<int>(t), gradient};
+    }
+  }
+}
+
+void PoissonAssembler::assemble(std::span<const Eigen::Matrix3d> maps, const Eigen::MatrixXd& positions, ColumnBlocks& rhs,
+                                int first_column) const {
+  const auto rows = system_.free_count();
+  tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, rows, 1024), [&](const tbb::blocked_range<Eigen::Index>& range) {
+    for (Eigen::Index row = range.begin(); row != range.end(); ++row) {
+      Eigen::Vector3d b = Eigen::Vector3d::Zero();
+      const auto end = corner_start_[static_cast<std::size_t>(row) + 1];
+      for (auto c = corner_start_[static_cast<std::size_t>(row)]; c < end; ++c) {
+        b.noalias() += maps[static_cast<std::size_t>(corners_[c].triangle)] * corners_[c].gradient;
+      }
+      for (const auto& entry : system_.coupling(static_cast<int>(row))) {
+        b.noalias() -= entry.weight * positions.row(entry.vertex).transpose();
+      }
+      for (int c = 0; c < 3; ++c) rhs.at(row, first_column + c) = b(c);
+    }
+  });
+}
+
+void poisson_reconstruct(const PoissonAssembler& assembler, const DirichletSystem& system,
+                         std::span<const Eigen::Matrix3d> maps, Eigen::MatrixXd& positions) {
+  ColumnBlocks rhs(system.free_count(), 3, SolveSchedule::Blocked);
+  assembler.assemble(maps, positions, rhs);
+  rhs.solve(system.factor());
+  for (Eigen::Index row = 0; row < system.free_count(); ++row) {
+    for (int c = 0; c < 3; ++c) positions(system.vertex_of_row()[static_cast<std::size_t>(row)], c) = rhs.at(row, c);
+  }
+}
+
+}  // namespace hdeform

@@ -1,0 +1,154 @@
+#include <Eigen/Dense>
+#include <random>
+
+#include "hdeform/constraints.h"
+#include "hdeform/dirichlet_system.h"
+#include "hdeform/errors.h"
+#include "hdeform/laplacian.h"
+#include "hdeform/shapes.h"
+#include "hdeform/sparse_cholesky.h"
+#include "test_support.h"
+
+namespace hdeform {
+namespace {
+
+// A symmetric positive definite test matrix: a Laplacian with a few Dirichlet vertices removed.
+Eigen::SparseMatrix<double> spd_matrix(const Mesh& mesh) {
+  const auto laplacian = cotangent_laplacian(mesh);
+  const auto n = mesh.vertex_count();
+  // Shift by a diagonal so that no row is removed but the matrix is definite.
+  Eigen::SparseMatrix<double> identity(n, n);
+  identity.setIdentity();
+  return laplacian + 1e-3 * identity;
+}
+
+Eigen::MatrixXd random_matrix(Eigen::Index rows, Eigen::Index columns, unsigned seed) {
+  std::mt19937 random(seed);
+  std::uniform_real_distribution<double> uniform(-1.0, 1.0);
+  Eigen::MatrixXd matrix(rows, columns);
+  for (Eigen::Index i = 0; i < matrix.size(); ++i) matrix(i) = uniform(random);
+  return matrix;
+}
+
+std::vector<SolverBackend> backends() {
+  std::vector<SolverBackend> available;
+  for (auto backend : {SolverBackend::Eigen, SolverBackend::Cholmod}) {
+    if (backend_available(backend)) available.push_back(backend);
+  }
+  return available;
+}
+
+TEST(SparseCholesky, MatchesADenseSolve) {
+  const auto matrix = spd_matrix(make_shape(ShapeKind::Cactus, 12).mesh);
+  const Eigen::MatrixXd rhs = random_matrix(matrix.rows(), 5, 3);
+  const Eigen::MatrixXd expected = Eigen::MatrixXd(matrix).ldlt().solve(rhs);
+  for (const auto backend : backends()) {
+    SparseCholesky factor;
+    factor.factor(matrix, backend);
+    EXPECT_LE(test::relative_difference(factor.solve(rhs), expected), 1e-10) << to_string(backend);
+    // More columns than one kernel pass takes (8): solved in chunks, same answer.
+    const Eigen::MatrixXd wide_rhs = random_matrix(matrix.rows(), 19, 4);
+    const Eigen::MatrixXd wide_expected = Eigen::MatrixXd(matrix).ldlt().solve(wide_rhs);
+    EXPECT_LE(test::relative_difference(factor.solve(wide_rhs), wide_expected), 1e-10) << to_string(backend);
+  }
+}
+
+TEST(SparseCholesky, BackendsAgree) {
+  if (backends().size() < 2) GTEST_SKIP() << "this build has only the Eigen backend";
+  const Mesh mesh = make_shape(ShapeKind::Cactus, 32).mesh;
+  const auto matrix = spd_matrix(mesh);
+  const Eigen::MatrixXd rhs = random_matrix(matrix.rows(), 3, 5);
+  SparseCholesky eigen, cholmod;
+  eigen.factor(matrix, SolverBackend::Eigen);
+  cholmod.factor(matrix, SolverBackend::Cholmod);
+  const Eigen::MatrixXd a = eigen.solve(rhs), b = cholmod.solve(rhs);
+  EXPECT_LE((a - b).norm() / a.norm(), 1e-10);
+  EXPECT_GT((a - b).norm(), 0.0);  // different orderings: really two computations
+}
+
+TEST(SparseCholesky, RejectsAnIndefiniteMatrix) {
+  const auto laplacian = cotangent_laplacian(make_shape(ShapeKind::Sphere, 8).mesh);  // singular: constants
+  Eigen::SparseMatrix<double> indefinite = -laplacian;
+  for (const auto backend : backends()) {
+    SparseCholesky factor;
+    EXPECT_THROW(factor.factor(indefinite, backend), SolveError) << to_string(backend);
+  }
+}
+
+TEST(ColumnBlocks, EverySchedulePartitionsColumnsAndGivesIdenticalBits) {
+  const auto matrix = spd_matrix(make_shape(ShapeKind::Cactus, 16).mesh);
+  SparseCholesky factor;
+  factor.factor(matrix, SolverBackend::Eigen);
+  const Eigen::MatrixXd rhs = random_matrix(matrix.rows(), 5, 9);
+  std::vector<Eigen::MatrixXd> results;
+  for (const auto schedule : {SolveSchedule::Blocked, SolveSchedule::PerColumn, SolveSchedule::ThreadGroups}) {
+    for (const int threads : {1, 2, 3}) {
+      ColumnBlocks blocks(matrix.rows(), 5, schedule, threads);
+      if (schedule == SolveSchedule::Blocked) {
+        EXPECT_EQ(blocks.groups(), 1);
+      }
+      if (schedule == SolveSchedule::PerColumn) {
+        EXPECT_EQ(blocks.groups(), 5);
+      }
+      if (schedule == SolveSchedule::ThreadGroups) {
+        EXPECT_EQ(blocks.groups(), threads);
+      }
+      for (Eigen::Index i = 0; i < matrix.rows(); ++i) {
+        for (int c = 0; c < 5; ++c) blocks.at(factor.factor_row()[static_cast<std::size_t>(i)], c) = rhs(i, c);
+      }
+      blocks.solve(factor);
+      Eigen::MatrixXd solution(matrix.rows(), 5);
+      for (Eigen::Index i = 0; i < matrix.rows(); ++i) {
+        for (int c = 0; c < 5; ++c) solution(i, c) = blocks.at(factor.factor_row()[static_cast<std::size_t>(i)], c);
+      }
+      results.push_back(solution);
+    }
+  }
+  EXPECT_LE(test::relative_difference(results[0], factor.solve(rhs)), 0.0);
+  for (const auto& result : results) EXPECT_EQ(result, results[0]);
+}
+
+TEST(DirichletSystem, SolvesTheConstrainedProblemLikeADenseReference) {
+  const Mesh mesh = make_shape(ShapeKind::Cylinder, 16).mesh;
+  const auto weights = cotangent_weights(mesh);
+  const auto laplacian = cotangent_laplacian(mesh, weights);
+  EditConstraints constraints;
+  for (Eigen::Index v = 0; v < mesh.vertex_count(); ++v) {
+    if (mesh.positions(v, 2) < 0.1) constraints.fixed.push_back(static_cast<int>(v));
+    if (mesh.positions(v, 2) > 0.9) {
+      if (constraints.handles.empty()) constraints.handles.emplace_back();
+      constraints.handles[0].push_back(static_cast<int>(v));
+    }
+  }
+  const auto partition = partition_vertices(mesh, weights, constraints);
+  const Eigen::MatrixXd source = random_matrix(mesh.vertex_count(), 2, 11);
+  Eigen::MatrixXd values = random_matrix(mesh.vertex_count(), 2, 12);  // constrained rows: Dirichlet data
+  const Eigen::MatrixXd dirichlet = values;
+
+  // Dense reference: eliminate the constrained rows and columns by hand.
+  const auto& free = partition.free_vertices;
+  const auto& fixed = partition.constrained_vertices;
+  const Eigen::MatrixXd full(laplacian);
+  Eigen::MatrixXd free_block(free.size(), free.size()), coupling(free.size(), fixed.size());
+  for (std::size_t i = 0; i < free.size(); ++i) {
+    for (std::size_t j = 0; j < free.size(); ++j) free_block(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j)) = full(free[i], free[j]);
+    for (std::size_t j = 0; j < fixed.size(); ++j) coupling(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j)) = full(free[i], fixed[j]);
+  }
+  Eigen::MatrixXd known(fixed.size(), 2), rhs(free.size(), 2);
+  for (std::size_t j = 0; j < fixed.size(); ++j) known.row(static_cast<Eigen::Index>(j)) = dirichlet.row(fixed[j]);
+  for (std::size_t i = 0; i < free.size(); ++i) rhs.row(static_cast<Eigen::Index>(i)) = source.row(free[i]);
+  const Eigen::MatrixXd expected = free_block.ldlt().solve(rhs - coupling * known);
+
+  for (const auto backend : backends()) {
+    const DirichletSystem system(laplacian, partition, backend);
+    Eigen::MatrixXd solved = dirichlet;
+    system.solve(solved, &source);
+    Eigen::MatrixXd solved_free(free.size(), 2);
+    for (std::size_t i = 0; i < free.size(); ++i) solved_free.row(static_cast<Eigen::Index>(i)) = solved.row(free[i]);
+    EXPECT_LE(test::relative_difference(solved_free, expected), 1e-10) << to_string(backend);
+    for (const int v : fixed) EXPECT_EQ(solved.row(v), dirichlet.row(v));
+  }
+}
+
+}  // namespace
+}  // namespace hdeform
