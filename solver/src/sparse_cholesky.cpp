@@ -5,6 +5,8 @@
 #include <tbb/task_arena.h>
 
 #include <algorithm>
+#include <numeric>
+#include <span>
 #include <string>
 
 #include "hdeform/errors.h"
@@ -16,45 +18,82 @@
 namespace hdeform {
 namespace {
 
-// Forward then backward substitution with L (CSC, diagonal first) for K interleaved columns.
-// Forward sweep scatters column j into the rows below; backward sweep gathers row j of Lᵀ.
+// Forward sweep L y = b over `columns` (ascending), K interleaved right-hand sides: a gather
+// along row j of L, read as column j of Lᵀ (diagonal last).
+// Independent partial sums per column: a single running sum would chain every product through
+// the adder's latency. The split is fixed, so the result does not depend on threads.
 template <int K>
-void substitute(const Eigen::SparseMatrix<double>& lower, double* y, int stride) {
-  const int n = static_cast<int>(lower.cols());
-  const int* outer = lower.outerIndexPtr();
-  const int* inner = lower.innerIndexPtr();
-  const double* value = lower.valuePtr();
-  for (int j = 0; j < n; ++j) {
-    int p = outer[j];
-    const double inverse_diagonal = 1.0 / value[p];
-    double* yj = y + static_cast<std::ptrdiff_t>(j) * stride;
-    double pivot[K];
-    for (int k = 0; k < K; ++k) pivot[k] = yj[k] = yj[k] * inverse_diagonal;
-    for (++p; p < outer[j + 1]; ++p) {
-      const double l = value[p];
-      double* yi = y + static_cast<std::ptrdiff_t>(inner[p]) * stride;
-      for (int k = 0; k < K; ++k) yi[k] -= l * pivot[k];
+constexpr int kPartialSums = 2;
+
+// Σ_p value[p]·y[inner[p]] for p in [begin, end), K interleaved columns, into sum[0..K).
+template <int K>
+inline void gather_products(const int* inner, const double* value, int begin, int end, const double* y, int stride, double* sum) {
+  constexpr int S = kPartialSums<K>;
+  double partial[S][K] = {};
+  int p = begin;
+  for (; p + S <= end; p += S) {
+    for (int s = 0; s < S; ++s) {
+      const double l = value[p + s];
+      const double* yi = y + static_cast<std::ptrdiff_t>(inner[p + s]) * stride;
+      for (int k = 0; k < K; ++k) partial[s][k] += l * yi[k];
     }
   }
-  for (int j = n - 1; j >= 0; --j) {
-    const int first = outer[j];
-    double* yj = y + static_cast<std::ptrdiff_t>(j) * stride;
-    double sum[K];
-    for (int k = 0; k < K; ++k) sum[k] = yj[k];
-    for (int p = first + 1; p < outer[j + 1]; ++p) {
-      const double l = value[p];
-      const double* yi = y + static_cast<std::ptrdiff_t>(inner[p]) * stride;
-      for (int k = 0; k < K; ++k) sum[k] -= l * yi[k];
-    }
-    const double inverse_diagonal = 1.0 / value[first];
-    for (int k = 0; k < K; ++k) yj[k] = sum[k] * inverse_diagonal;
+  for (; p < end; ++p) {
+    const double l = value[p];
+    const double* yi = y + static_cast<std::ptrdiff_t>(inner[p]) * stride;
+    for (int k = 0; k < K; ++k) partial[0][k] += l * yi[k];
+  }
+  for (int k = 0; k < K; ++k) {
+    double total = 0.0;
+    for (int s = 0; s < S; ++s) total += partial[s][k];
+    sum[k] = total;
   }
 }
 
-using Kernel = void (*)(const Eigen::SparseMatrix<double>&, double*, int);
+// Forward sweep L y = b over `columns` (ascending), K interleaved right-hand sides: a gather
+// along row j of L, read as column j of Lᵀ (diagonal last).
+template <int K>
+void forward_sweep(const Eigen::SparseMatrix<double>& upper, std::span<const int> columns, double* y, int stride) {
+  const int* outer = upper.outerIndexPtr();
+  const int* inner = upper.innerIndexPtr();
+  const double* value = upper.valuePtr();
+  for (const int j : columns) {
+    double* yj = y + static_cast<std::ptrdiff_t>(j) * stride;
+    const int diagonal = outer[j + 1] - 1;
+    double products[K];
+    gather_products<K>(inner, value, outer[j], diagonal, y, stride, products);
+    const double inverse_diagonal = 1.0 / value[diagonal];
+    for (int k = 0; k < K; ++k) yj[k] = (yj[k] - products[k]) * inverse_diagonal;
+  }
+}
+
+// Backward sweep Lᵀ x = y over `columns` (descending): a gather along column j of L (diagonal
+// first), with L's columns stored last to first.
+template <int K>
+void backward_sweep(const std::size_t* begin, const std::size_t* end, const int* row, const double* value,
+                    std::span<const int> columns, double* y, int stride) {
+  for (auto it = columns.rbegin(); it != columns.rend(); ++it) {
+    const int j = *it;
+    double* yj = y + static_cast<std::ptrdiff_t>(j) * stride;
+    const auto diagonal = static_cast<int>(begin[j]);
+    double products[K];
+    gather_products<K>(row, value, diagonal + 1, static_cast<int>(end[j]), y, stride, products);
+    const double inverse_diagonal = 1.0 / value[diagonal];
+    for (int k = 0; k < K; ++k) yj[k] = (yj[k] - products[k]) * inverse_diagonal;
+  }
+}
+
+struct Sweeps {
+  void (*forward)(const Eigen::SparseMatrix<double>&, std::span<const int>, double*, int);
+  void (*backward)(const std::size_t*, const std::size_t*, const int*, const double*, std::span<const int>, double*, int);
+};
+template <int K>
+constexpr Sweeps sweeps_for() {
+  return {forward_sweep<K>, backward_sweep<K>};
+}
 constexpr int kMaxKernelColumns = 8;
-constexpr Kernel kKernels[kMaxKernelColumns] = {substitute<1>, substitute<2>, substitute<3>, substitute<4>,
-                                                substitute<5>, substitute<6>, substitute<7>, substitute<8>};
+constexpr Sweeps kSweeps[kMaxKernelColumns] = {sweeps_for<1>(), sweeps_for<2>(), sweeps_for<3>(), sweeps_for<4>(),
+                                               sweeps_for<5>(), sweeps_for<6>(), sweeps_for<7>(), sweeps_for<8>()};
 
 // Eigen's factor object keeps L in a protected member; moving it out avoids a 30 MB copy.
 template <class Solver>
@@ -82,6 +121,7 @@ struct CholmodFactorAccess : Eigen::CholmodSupernodalLLT<Eigen::SparseMatrix<dou
 void factor_with_cholmod(const Eigen::SparseMatrix<double>& matrix, Eigen::SparseMatrix<double>& lower,
                          std::vector<int>& factor_row) {
   CholmodFactorAccess solver;
+  solver.cholmod().print = 0;  // failures are reported as SolveError, not printed by CHOLMOD
   solver.compute(matrix);
   if (solver.info() != Eigen::Success) {
     throw SolveError("the Laplacian system is not positive definite (CHOLMOD supernodal LLT failed)");
@@ -136,26 +176,143 @@ void SparseCholesky::factor(const Eigen::SparseMatrix<double>& matrix, SolverBac
   if (matrix.rows() != matrix.cols()) throw SolveError("cannot factor a non-square matrix");
   if (!backend_available(backend)) throw SolveError("this build has no " + std::string(to_string(backend)) + " backend");
   backend_ = backend;
-  lower_.resize(0, 0);
   factor_row_.clear();
-  if (matrix.rows() == 0) return;
+  Eigen::SparseMatrix<double> lower(0, 0);
   try {
+    if (matrix.rows() > 0) {
 #ifdef HDEFORM_WITH_CHOLMOD
-    if (backend == SolverBackend::Cholmod) {
-      factor_with_cholmod(matrix, lower_, factor_row_);
-      return;
-    }
+      if (backend == SolverBackend::Cholmod) factor_with_cholmod(matrix, lower, factor_row_);
+      else factor_with_eigen(matrix, lower, factor_row_);
+#else
+      factor_with_eigen(matrix, lower, factor_row_);
 #endif
-    factor_with_eigen(matrix, lower_, factor_row_);
+    }
+    adopt_factor(lower);
   } catch (const std::bad_alloc&) {
     throw SolveError("out of memory while factoring a " + std::to_string(matrix.rows()) + "-unknown system");
   }
 }
 
+void SparseCholesky::adopt_factor(const Eigen::SparseMatrix<double>& lower) {
+  upper_ = lower.transpose();
+  const auto n = static_cast<std::size_t>(lower.cols());
+  lower_.begin.resize(n);
+  lower_.end.resize(n);
+  lower_.row.resize(static_cast<std::size_t>(lower.nonZeros()));
+  lower_.value.resize(static_cast<std::size_t>(lower.nonZeros()));
+  std::size_t next = 0;
+  for (std::size_t j = n; j-- > 0;) {
+    lower_.begin[j] = next;
+    for (int p = lower.outerIndexPtr()[j]; p < lower.outerIndexPtr()[j + 1]; ++p, ++next) {
+      lower_.row[next] = lower.innerIndexPtr()[p];
+      lower_.value[next] = lower.valuePtr()[p];
+    }
+    lower_.end[j] = next;
+  }
+  split_elimination_tree(lower);
+}
+
+void SparseCholesky::split_elimination_tree(const Eigen::SparseMatrix<double>& lower) {
+  subtrees_.clear();
+  top_.clear();
+  const int n = static_cast<int>(lower.cols());
+  const int parts = tbb::this_task_arena::max_concurrency();
+  const int* outer = lower.outerIndexPtr();
+  const int* inner = lower.innerIndexPtr();
+  if (parts <= 1 || n < 1024) {
+    top_.resize(static_cast<std::size_t>(n));
+    std::iota(top_.begin(), top_.end(), 0);
+    return;
+  }
+  // Elimination tree: the parent of column j is the first row below the diagonal in column j.
+  std::vector<int> parent(static_cast<std::size_t>(n), -1);
+  std::vector<double> subtree_work(static_cast<std::size_t>(n));
+  std::vector<int> child_start(static_cast<std::size_t>(n) + 1, 0);
+  for (int j = 0; j < n; ++j) {
+    subtree_work[static_cast<std::size_t>(j)] += outer[j + 1] - outer[j];
+    if (outer[j + 1] - outer[j] > 1) {
+      const int p = inner[outer[j] + 1];
+      parent[static_cast<std::size_t>(j)] = p;
+      subtree_work[static_cast<std::size_t>(p)] += subtree_work[static_cast<std::size_t>(j)];
+      ++child_start[static_cast<std::size_t>(p) + 1];
+    }
+  }
+  for (int j = 0; j < n; ++j) child_start[static_cast<std::size_t>(j) + 1] += child_start[static_cast<std::size_t>(j)];
+  std::vector<int> children(static_cast<std::size_t>(child_start.back()));
+  {
+    std::vector<int> fill(child_start.begin(), child_start.end() - 1);
+    for (int j = 0; j < n; ++j) {
+      if (parent[static_cast<std::size_t>(j)] >= 0) children[static_cast<std::size_t>(fill[static_cast<std::size_t>(parent[static_cast<std::size_t>(j)])]++)] = j;
+    }
+  }
+
+  // Proportional splitting: take the largest subtree's root into the top part until every
+  // subtree is small enough for an even packing onto the workers.
+  const double total = static_cast<double>(lower.nonZeros());
+  const double grain = total / (16.0 * parts);
+  const double top_limit = 0.25 * total;
+  std::vector<std::pair<double, int>> heap;
+  for (int j = 0; j < n; ++j) {
+    if (parent[static_cast<std::size_t>(j)] < 0) heap.emplace_back(subtree_work[static_cast<std::size_t>(j)], j);
+  }
+  std::make_heap(heap.begin(), heap.end());
+  double top_work = 0.0;
+  while (!heap.empty() && heap.front().first > grain && top_work < top_limit) {
+    std::pop_heap(heap.begin(), heap.end());
+    const int root = heap.back().second;
+    heap.pop_back();
+    top_.push_back(root);
+    top_work += outer[root + 1] - outer[root];
+    for (int c = child_start[static_cast<std::size_t>(root)]; c < child_start[static_cast<std::size_t>(root) + 1]; ++c) {
+      const int child = children[static_cast<std::size_t>(c)];
+      heap.emplace_back(subtree_work[static_cast<std::size_t>(child)], child);
+      std::push_heap(heap.begin(), heap.end());
+    }
+  }
+  // Largest first onto the least loaded worker; ties by root index keep it deterministic.
+  std::sort(heap.begin(), heap.end(), [](const auto& a, const auto& b) { return a.first != b.first ? a.first > b.first : a.second < b.second; });
+  subtrees_.assign(static_cast<std::size_t>(parts), {});
+  std::vector<double> load(static_cast<std::size_t>(parts), 0.0);
+  std::vector<int> stack;
+  for (const auto& [work, root] : heap) {
+    const auto worker = static_cast<std::size_t>(std::min_element(load.begin(), load.end()) - load.begin());
+    load[worker] += work;
+    stack.assign(1, root);
+    while (!stack.empty()) {
+      const int node = stack.back();
+      stack.pop_back();
+      subtrees_[worker].push_back(node);
+      for (int c = child_start[static_cast<std::size_t>(node)]; c < child_start[static_cast<std::size_t>(node) + 1]; ++c) {
+        stack.push_back(children[static_cast<std::size_t>(c)]);
+      }
+    }
+  }
+  for (auto& columns : subtrees_) std::sort(columns.begin(), columns.end());
+  std::sort(top_.begin(), top_.end());
+}
+
+double SparseCholesky::top_fraction() const {
+  if (upper_.nonZeros() == 0) return 0.0;
+  double top = 0.0;
+  for (const int j : top_) top += static_cast<double>(lower_.end[static_cast<std::size_t>(j)] - lower_.begin[static_cast<std::size_t>(j)]);
+  return top / static_cast<double>(upper_.nonZeros());
+}
+
 void SparseCholesky::solve_block(double* block, int columns, int stride) const {
   for (int first = 0; first < columns; first += kMaxKernelColumns) {
-    const int width = std::min(kMaxKernelColumns, columns - first);
-    kKernels[width - 1](lower_, block + first, stride);
+    const Sweeps& sweeps = kSweeps[std::min(kMaxKernelColumns, columns - first) - 1];
+    double* y = block + first;
+    auto each_subtree = [&](auto&& sweep) {
+      if (subtrees_.empty()) return;
+      tbb::parallel_for(std::size_t{0}, subtrees_.size(), [&](std::size_t part) { sweep(subtrees_[part]); }, tbb::static_partitioner());
+    };
+    auto backward = [&](std::span<const int> part) {
+      sweeps.backward(lower_.begin.data(), lower_.end.data(), lower_.row.data(), lower_.value.data(), part, y, stride);
+    };
+    each_subtree([&](const std::vector<int>& part) { sweeps.forward(upper_, part, y, stride); });
+    sweeps.forward(upper_, top_, y, stride);
+    backward(top_);
+    each_subtree([&](const std::vector<int>& part) { backward(part); });
   }
 }
 
@@ -186,7 +343,7 @@ std::optional<SolveSchedule> parse_schedule(std::string_view name) {
   return std::nullopt;
 }
 
-SolveSchedule default_schedule() { return SolveSchedule::ThreadGroups; }
+SolveSchedule default_schedule() { return SolveSchedule::Blocked; }
 
 ColumnBlocks::ColumnBlocks(Eigen::Index rows, int columns, SolveSchedule schedule, int threads) : rows_(rows) {
   if (threads <= 0) threads = tbb::this_task_arena::max_concurrency();
