@@ -3,17 +3,15 @@
 
 #include <chrono>
 #include <fstream>
+#include <map>
 #include <random>
 
 #include "batch_commands.h"
 #include "cli_support.h"
 #include "hdeform/atomic_file.h"
 #include "hdeform/constraint_io.h"
-#include "hdeform/deformation_field.h"
 #include "hdeform/deformer.h"
 #include "hdeform/errors.h"
-#include "hdeform/laplacian.h"
-#include "hdeform/poisson.h"
 
 namespace hdeform::cli {
 namespace {
@@ -88,15 +86,27 @@ class BenchCommand final : public BatchCommand {
                              {"steps", steps_},
                              {"read_ms", read_ms}};
 
-    // One drag of `steps_` updates, after one warm-up update; per-update milliseconds.
-    auto drag = [&](Deformer& deformer, std::span<const HandleTransform> targets, Eigen::MatrixXd& positions) {
+    // One drag of `steps_` updates, after one warm-up update; per-update milliseconds, and the
+    // median of each stage in `stages` when given.
+    auto drag = [&](Deformer& deformer, std::span<const HandleTransform> targets, Eigen::MatrixXd& positions,
+                    nlohmann::json* stages = nullptr) {
       std::vector<HandleTransform> step(targets.size());
       std::vector<double> samples;
+      std::map<std::string, std::vector<double>> stage_samples;
       for (int k = 0; k <= steps_; ++k) {
         for (std::size_t h = 0; h < targets.size(); ++h) step[h] = targets[h].at_fraction(std::max(k, 1) / static_cast<double>(steps_));
         const auto update_start = Clock::now();
         deformer.deform(step, positions);
-        if (k > 0) samples.push_back(since(update_start));
+        if (k == 0) continue;
+        samples.push_back(since(update_start));
+        const auto& t = deformer.last_update();
+        for (const auto& [name, value] : {std::pair{"field", t.field_ms}, {"maps", t.maps_ms}, {"targets", t.targets_ms},
+                                          {"rhs", t.rhs_ms}, {"solve", t.solve_ms}, {"write", t.write_ms}}) {
+          stage_samples[name].push_back(value);
+        }
+      }
+      if (stages != nullptr) {
+        for (const auto& [name, values] : stage_samples) (*stages)[name] = std::round(summarize(values).median * 1000.0) / 1000.0;
       }
       return summarize(samples);
     };
@@ -135,7 +145,9 @@ class BenchCommand final : public BatchCommand {
       Eigen::MatrixXd positions;
       {
         Deformer deformer(mesh, constraints, {default_backend(), schedule});
-        report["one_handle_update_ms"][name] = to_json(drag(deformer, std::span(&transform, 1), positions));
+        nlohmann::json stages;
+        report["one_handle_update_ms"][name] = to_json(drag(deformer, std::span(&transform, 1), positions, &stages));
+        if (schedule == default_schedule()) report["one_handle_stage_ms"] = stages;
         // The coordinate solve alone: 3 columns against the factor.
         ColumnBlocks blocks(deformer.system().free_count(), 3, schedule);
         std::mt19937 random(7);
@@ -150,11 +162,12 @@ class BenchCommand final : public BatchCommand {
           if (k > 0) samples.push_back(since(solve_start));
         }
         report["solve_xyz_ms"][name] = to_json(summarize(samples));
-        if (schedule == default_schedule()) report["update_breakdown_ms"] = breakdown(deformer, transform);
       }
       {
         Deformer deformer(mesh, two_handles, {default_backend(), schedule});
-        report["two_handle_update_ms"][name] = to_json(drag(deformer, two_transforms, positions));
+        nlohmann::json stages;
+        report["two_handle_update_ms"][name] = to_json(drag(deformer, two_transforms, positions, &stages));
+        if (schedule == default_schedule()) report["two_handle_stage_ms"] = stages;
       }
     }
     report["peak_rss_mb"] = peak_rss_mb();
@@ -168,35 +181,6 @@ class BenchCommand final : public BatchCommand {
   }
 
  private:
-  // The stages of one single-handle update, run one at a time through the same functions that
-  // the update graph calls, to show where the time goes.
-  nlohmann::json breakdown(const Deformer& deformer, const HandleTransform& transform) const {
-    const Mesh& rest = deformer.rest();
-    const auto weights = cotangent_weights(rest);
-    const PoissonAssembler assembler(rest, weights, deformer.system());
-    const Eigen::VectorXd triangle_h = barycenter_values(deformer.field(), rest.triangles);
-    std::vector<Eigen::Matrix3d> maps(static_cast<std::size_t>(rest.triangle_count()));
-    ColumnBlocks rhs(deformer.system().free_count(), 3, default_schedule());
-    Eigen::MatrixXd positions = rest.positions;
-    std::vector<double> maps_ms, rhs_ms, solve_ms;
-    for (int k = 0; k <= steps_; ++k) {
-      auto start = Clock::now();
-      sample_blend_maps(triangle_h, transform, maps);
-      const double t_maps = since(start);
-      start = Clock::now();
-      assembler.assemble(maps, positions, rhs);
-      const double t_rhs = since(start);
-      start = Clock::now();
-      rhs.solve(deformer.system().factor());
-      const double t_solve = since(start);
-      if (k == 0) continue;
-      maps_ms.push_back(t_maps);
-      rhs_ms.push_back(t_rhs);
-      solve_ms.push_back(t_solve);
-    }
-    return {{"maps", summarize(maps_ms).median}, {"rhs", summarize(rhs_ms).median}, {"solve", summarize(solve_ms).median}};
-  }
-
   MeshSource source_;
   std::string fixed_path_;
   std::string handle_path_;

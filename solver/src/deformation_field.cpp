@@ -2,6 +2,9 @@
 
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
+#include <cmath>
+
 namespace hdeform {
 namespace {
 
@@ -51,12 +54,43 @@ DeformationField interpolate_field(const DirichletSystem& system, const VertexPa
   return field;
 }
 
-void sample_blend_maps(const Eigen::VectorXd& triangle_h, const HandleTransform& handle, std::vector<Eigen::Matrix3d>& maps) {
-  maps.resize(static_cast<std::size_t>(triangle_h.size()));
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, maps.size(), kGrain), [&](const tbb::blocked_range<std::size_t>& range) {
+Eigen::Matrix3d AxialMaps::matrix(std::size_t triangle) const {
+  const Eigen::Vector3d& c = coefficients[triangle];
+  Eigen::Matrix3d cross;
+  cross << 0.0, -axis.z(), axis.y(), axis.z(), 0.0, -axis.x(), -axis.y(), axis.x(), 0.0;
+  return c(0) * Eigen::Matrix3d::Identity() + c(1) * cross + c(2) * axis * axis.transpose();
+}
+
+void sample_blend_maps(const Eigen::VectorXd& triangle_h, const HandleTransform& handle, AxialMaps& maps) {
+  // Table of cos, sin at φ_i = i·θ/N with steps of at most 0.01 rad; the remainder δ of h·θ is
+  // below 0.005 rad, where the Taylor terms below are exact to double precision.
+  constexpr double kTableStep = 0.01;
+  const double theta = handle.angle;
+  const int intervals = std::max(16, static_cast<int>(std::ceil(std::abs(theta) / kTableStep)));
+  maps.angle_table.resize(static_cast<std::size_t>(intervals) + 1);
+  for (int i = 0; i <= intervals; ++i) {
+    const double phi = theta * i / intervals;
+    maps.angle_table[static_cast<std::size_t>(i)] = {std::cos(phi), std::sin(phi)};
+  }
+  maps.axis = handle.axis;
+  maps.coefficients.resize(static_cast<std::size_t>(triangle_h.size()));
+  const double step = theta / intervals;
+  const double scale_slope = handle.scale - 1.0;
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, maps.coefficients.size(), kGrain), [&](const tbb::blocked_range<std::size_t>& range) {
     for (std::size_t t = range.begin(); t != range.end(); ++t) {
       const double h = triangle_h(static_cast<Eigen::Index>(t));
-      maps[t] = blend_scale(handle, h) * blend_rotation(handle, h).toRotationMatrix();
+      const double position = std::clamp(h, 0.0, 1.0) * intervals;
+      const int i = static_cast<int>(position + 0.5);
+      const double delta = (h * intervals - i) * step;
+      const double d2 = delta * delta;
+      constexpr double k1_6 = 1.0 / 6.0, k1_20 = 1.0 / 20.0, k1_42 = 1.0 / 42.0, k1_12 = 1.0 / 12.0, k1_30 = 1.0 / 30.0;
+      const double sin_delta = delta * (1.0 - d2 * k1_6 * (1.0 - d2 * k1_20 * (1.0 - d2 * k1_42)));
+      const double cos_delta = 1.0 - 0.5 * d2 * (1.0 - d2 * k1_12 * (1.0 - d2 * k1_30));
+      const Eigen::Vector2d& base = maps.angle_table[static_cast<std::size_t>(i)];
+      const double cosine = base(0) * cos_delta - base(1) * sin_delta;
+      const double sine = base(1) * cos_delta + base(0) * sin_delta;
+      const double s = 1.0 + h * scale_slope;
+      maps.coefficients[t] = {s * cosine, s * sine, s * (1.0 - cosine)};
     }
   });
 }

@@ -3,7 +3,9 @@
 #include <tbb/flow_graph.h>
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
 #include <chrono>
+#include <limits>
 #include <stdexcept>
 
 #include "hdeform/deformation_field.h"
@@ -27,16 +29,18 @@ constexpr std::size_t kRowGrain = 1024;
 }  // namespace
 
 // The per-update task graph. One handle:
-//   start ─┬─► maps (blend along h) ──────────┬─► rhs ─► solve group 1..G ─► write free rows
+//   start ─┬─► maps (blend along h) ──────────┬─► rhs ─► solve x, y, z ─► write free rows
 //          └─► constrained targets ───────────┘
-// Several handles: start ─► field rhs ─► field solve groups ─► components ─► maps ─► ...
-// Solve groups run concurrently against the one factor (SolveSchedule decides the grouping).
+// Several handles: start ─► field rhs ─► solve q0..q3, s ─► components ─► maps ─► ...
+// Each solve runs its columns concurrently against the one factor: as column groups and, within
+// a group, over subtrees of the elimination tree (SolveSchedule decides the grouping).
 struct Deformer::UpdateGraph {
   // Inputs of the update in flight.
   std::span<const HandleTransform> transforms;
   Eigen::MatrixXd* positions = nullptr;
 
-  std::vector<Eigen::Matrix3d> maps;
+  std::vector<Eigen::Matrix3d> maps;  // several handles
+  AxialMaps axial_maps;               // one handle
   ColumnBlocks coordinates;
   ColumnBlocks fields;
   Eigen::Matrix<double, Eigen::Dynamic, kInterpolatedComponents, Eigen::RowMajor> components;
@@ -46,9 +50,14 @@ struct Deformer::UpdateGraph {
   tbb::flow::broadcast_node<Message> start{graph};
   std::vector<std::unique_ptr<Node>> nodes;
 
+  // A stage whose duration is added to `*stage_ms` (zeroed before each update).
   template <class Body>
-  Node& add(Body body) {
-    nodes.push_back(std::make_unique<Node>(graph, [body](const Message&) { body(); }));
+  Node& add(double* stage_ms, Body body) {
+    nodes.push_back(std::make_unique<Node>(graph, [body, stage_ms](const Message&) {
+      const auto start = Clock::now();
+      body();
+      *stage_ms += milliseconds_since(start);
+    }));
     return *nodes.back();
   }
 };
@@ -77,18 +86,17 @@ Deformer::Deformer(Mesh rest, EditConstraints constraints, DeformerOptions optio
   start = Clock::now();
   field_ = harmonic_field(*system_, partition_);
   timings_.field_ms = milliseconds_since(start);
-  triangle_field_ = barycenter_values(field_, rest_.triangles);
-  assembler_ = std::make_unique<PoissonAssembler>(rest_, weights_, *system_);
+  prepare_update_triangles();
 
   // The update graph and every buffer it touches, allocated once.
   graph_ = std::make_unique<UpdateGraph>();
   auto& g = *graph_;
   const auto free_rows = system_->free_count();
   const auto vertex_count = rest_.vertex_count();
-  g.maps.resize(static_cast<std::size_t>(rest_.triangle_count()));
   g.coordinates = ColumnBlocks(free_rows, 3, options_.schedule);
 
-  Node& targets = g.add([this] {
+  auto& t = last_update_;
+  Node& targets = g.add(&t.targets_ms, [this] {
     auto& positions = *graph_->positions;
     const auto& transforms = graph_->transforms;
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, partition_.role.size(), kRowGrain), [&](const auto& range) {
@@ -109,13 +117,15 @@ Deformer::Deformer(Mesh rest, EditConstraints constraints, DeformerOptions optio
 
   Node* maps_node = nullptr;
   if (handle_count() == 1) {
-    maps_node = &g.add([this] { sample_blend_maps(triangle_field_, graph_->transforms[0], graph_->maps); });
+    g.axial_maps.coefficients.resize(update_triangles_.size());
+    maps_node = &g.add(&t.maps_ms, [this] { sample_blend_maps(triangle_field_, graph_->transforms[0], graph_->axial_maps); });
     tbb::flow::make_edge(g.start, *maps_node);
   } else {
     g.fields = ColumnBlocks(free_rows, kInterpolatedComponents, options_.schedule);
     g.components.resize(vertex_count, kInterpolatedComponents);
     g.handle_values.resize(handle_count());
-    Node& field_rhs = g.add([this] {
+    g.maps.resize(update_triangles_.size());
+    Node& field_rhs = g.add(&t.field_ms, [this] {
       auto& u = *graph_;
       for (std::size_t k = 0; k < u.handle_values.size(); ++k) u.handle_values[k] = interpolation_value(u.transforms[k]);
       const auto identity = identity_interpolation_value();
@@ -134,7 +144,7 @@ Deformer::Deformer(Mesh rest, EditConstraints constraints, DeformerOptions optio
       });
     });
     tbb::flow::make_edge(g.start, field_rhs);
-    Node& components = g.add([this] {
+    Node& components = g.add(&t.field_ms, [this] {
       auto& u = *graph_;
       tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, system_->free_count(), kRowGrain), [&](const auto& range) {
         for (Eigen::Index row = range.begin(); row != range.end(); ++row) {
@@ -143,19 +153,19 @@ Deformer::Deformer(Mesh rest, EditConstraints constraints, DeformerOptions optio
         }
       });
     });
-    for (int group = 0; group < g.fields.groups(); ++group) {
-      Node& solve = g.add([this, group] { graph_->fields.solve_group(system_->factor(), group); });
-      tbb::flow::make_edge(field_rhs, solve);
-      tbb::flow::make_edge(solve, components);
-    }
-    maps_node = &g.add([this] { sample_interpolated_maps(graph_->components, rest_.triangles, graph_->maps); });
+    Node& field_solve = g.add(&t.field_ms, [this] { graph_->fields.solve(system_->factor()); });
+    tbb::flow::make_edge(field_rhs, field_solve);
+    tbb::flow::make_edge(field_solve, components);
+    maps_node = &g.add(&t.maps_ms, [this] { sample_interpolated_maps(graph_->components, update_mesh_triangles_, graph_->maps); });
     tbb::flow::make_edge(components, *maps_node);
   }
 
-  Node& rhs = g.add([this] { assembler_->assemble(graph_->maps, *graph_->positions, graph_->coordinates); });
+  Node& rhs = handle_count() == 1
+                  ? g.add(&t.rhs_ms, [this] { assembler_->assemble(graph_->axial_maps, *graph_->positions, graph_->coordinates); })
+                  : g.add(&t.rhs_ms, [this] { assembler_->assemble(graph_->maps, *graph_->positions, graph_->coordinates); });
   tbb::flow::make_edge(*maps_node, rhs);
   tbb::flow::make_edge(targets, rhs);
-  Node& write = g.add([this] {
+  Node& write = g.add(&t.write_ms, [this] {
     auto& u = *graph_;
     tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, system_->free_count(), kRowGrain), [&](const auto& range) {
       for (Eigen::Index row = range.begin(); row != range.end(); ++row) {
@@ -164,11 +174,44 @@ Deformer::Deformer(Mesh rest, EditConstraints constraints, DeformerOptions optio
       }
     });
   });
-  for (int group = 0; group < g.coordinates.groups(); ++group) {
-    Node& solve = g.add([this, group] { graph_->coordinates.solve_group(system_->factor(), group); });
-    tbb::flow::make_edge(rhs, solve);
-    tbb::flow::make_edge(solve, write);
+  Node& solve = g.add(&t.solve_ms, [this] { graph_->coordinates.solve(system_->factor()); });
+  tbb::flow::make_edge(rhs, solve);
+  tbb::flow::make_edge(solve, write);
+}
+
+void Deformer::prepare_update_triangles() {
+  // Only triangles with a free corner enter the right-hand side. They are renumbered in the order
+  // in which the assembly visits its rows (factor order), so that the per-triangle maps it reads
+  // lie close together in memory; the maps are computed in that order too.
+  const auto& row_of_vertex = system_->row_of_vertex();
+  std::vector<std::pair<int, int>> first_row;  // (smallest free row among the corners, triangle)
+  for (Eigen::Index t = 0; t < rest_.triangle_count(); ++t) {
+    if (weights_.kind[static_cast<std::size_t>(t)] == ElementKind::Ignored) continue;
+    int row = std::numeric_limits<int>::max();
+    for (int k = 0; k < 3; ++k) {
+      const int r = row_of_vertex[static_cast<std::size_t>(rest_.triangles(t, k))];
+      if (r >= 0) row = std::min(row, r);
+    }
+    if (row != std::numeric_limits<int>::max()) first_row.emplace_back(row, static_cast<int>(t));
   }
+  std::sort(first_row.begin(), first_row.end());
+  const auto count = static_cast<Eigen::Index>(first_row.size());
+  update_triangles_.resize(first_row.size());
+  Mesh update_mesh{rest_.positions, Eigen::MatrixXi(count, 3)};
+  CotangentWeights update_weights;
+  update_weights.half_cotangent.resize(count, 3);
+  update_weights.kind.resize(first_row.size());
+  for (Eigen::Index k = 0; k < count; ++k) {
+    const int t = first_row[static_cast<std::size_t>(k)].second;
+    update_triangles_[static_cast<std::size_t>(k)] = t;
+    update_mesh.triangles.row(k) = rest_.triangles.row(t);
+    update_weights.half_cotangent.row(k) = weights_.half_cotangent.row(t);
+    update_weights.kind[static_cast<std::size_t>(k)] = weights_.kind[static_cast<std::size_t>(t)];
+  }
+  update_mesh_triangles_ = std::move(update_mesh.triangles);
+  update_mesh.triangles = update_mesh_triangles_;
+  triangle_field_ = barycenter_values(field_, update_mesh_triangles_);
+  assembler_ = std::make_unique<PoissonAssembler>(update_mesh, update_weights, *system_);
 }
 
 Deformer::~Deformer() {
@@ -190,11 +233,14 @@ void Deformer::deform(std::span<const HandleTransform> transforms, Eigen::Matrix
     throw std::invalid_argument("deform: " + std::to_string(transforms.size()) + " transforms for " +
                                 std::to_string(handle_count()) + " handles");
   }
+  const auto start = Clock::now();
   positions.resize(rest_.vertex_count(), 3);
+  last_update_ = UpdateTimings{};
   graph_->transforms = transforms;
   graph_->positions = &positions;
   graph_->start.try_put(Message());
   graph_->graph.wait_for_all();
+  last_update_.total_ms = milliseconds_since(start);
 }
 
 }  // namespace hdeform

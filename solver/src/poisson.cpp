@@ -1,5 +1,6 @@
 #include "hdeform/poisson.h"
 
+#include <Eigen/Geometry>
 #include <tbb/parallel_for.h>
 
 namespace hdeform {
@@ -36,21 +37,42 @@ PoissonAssembler::PoissonAssembler(const Mesh& rest, const CotangentWeights& wei
   }
 }
 
-void PoissonAssembler::assemble(std::span<const Eigen::Matrix3d> maps, const Eigen::MatrixXd& positions, ColumnBlocks& rhs,
-                                int first_column) const {
+template <class CornerSum>
+void PoissonAssembler::assemble_rows(const Eigen::MatrixXd& positions, ColumnBlocks& rhs, int first_column, CornerSum corner_sum) const {
   const auto rows = system_.free_count();
   tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, rows, 1024), [&](const tbb::blocked_range<Eigen::Index>& range) {
     for (Eigen::Index row = range.begin(); row != range.end(); ++row) {
-      Eigen::Vector3d b = Eigen::Vector3d::Zero();
+      const auto begin = corner_start_[static_cast<std::size_t>(row)];
       const auto end = corner_start_[static_cast<std::size_t>(row) + 1];
-      for (auto c = corner_start_[static_cast<std::size_t>(row)]; c < end; ++c) {
-        b.noalias() += maps[static_cast<std::size_t>(corners_[c].triangle)] * corners_[c].gradient;
-      }
+      Eigen::Vector3d b = corner_sum(std::span(corners_.data() + begin, end - begin));
       for (const auto& entry : system_.coupling(static_cast<int>(row))) {
         b.noalias() -= entry.weight * positions.row(entry.vertex).transpose();
       }
       for (int c = 0; c < 3; ++c) rhs.at(row, first_column + c) = b(c);
     }
+  });
+}
+
+void PoissonAssembler::assemble(std::span<const Eigen::Matrix3d> maps, const Eigen::MatrixXd& positions, ColumnBlocks& rhs,
+                                int first_column) const {
+  assemble_rows(positions, rhs, first_column, [&](std::span<const Corner> corners) {
+    Eigen::Vector3d b = Eigen::Vector3d::Zero();
+    for (const auto& corner : corners) b.noalias() += maps[static_cast<std::size_t>(corner.triangle)] * corner.gradient;
+    return b;
+  });
+}
+
+void PoissonAssembler::assemble(const AxialMaps& maps, const Eigen::MatrixXd& positions, ColumnBlocks& rhs, int first_column) const {
+  const Eigen::Vector3d& a = maps.axis;
+  assemble_rows(positions, rhs, first_column, [&](std::span<const Corner> corners) {
+    Eigen::Vector3d along = Eigen::Vector3d::Zero(), turned = Eigen::Vector3d::Zero(), axial = Eigen::Vector3d::Zero();
+    for (const auto& corner : corners) {
+      const Eigen::Vector3d& c = maps.coefficients[static_cast<std::size_t>(corner.triangle)];
+      along += c(0) * corner.gradient;
+      turned += c(1) * corner.gradient;
+      axial += c(2) * corner.gradient;
+    }
+    return Eigen::Vector3d(along + a.cross(turned) + a * a.dot(axial));
   });
 }
 

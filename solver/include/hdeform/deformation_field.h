@@ -45,9 +45,23 @@ inline InterpolatedValue identity_interpolation_value() { return (InterpolatedVa
 DeformationField interpolate_field(const DirichletSystem& system, const VertexPartition& partition,
                                    std::span<const HandleTransform> handles);
 
+// Per-triangle maps that all turn about one axis a:
+//   T_t = α_t I + β_t [a]× + γ_t a aᵀ,  α = s cos φ, β = s sin φ, γ = s (1 − cos φ),
+// a rotation by φ_t scaled by s_t. One handle's field has this form (its axis is fixed), and three
+// numbers per triangle instead of nine make the update's right-hand side cheaper to read.
+struct AxialMaps {
+  Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();
+  std::vector<Eigen::Vector3d> coefficients;  // (α, β, γ) per triangle
+  std::vector<Eigen::Vector2d> angle_table;   // scratch: (cos, sin) at the table's angles
+
+  Eigen::Matrix3d matrix(std::size_t triangle) const;
+};
+
 // T_t = s_t R_t at each triangle's barycenter, where a linear field takes the mean of its corners.
-// One handle: from the barycentric field value h_t. Allocation-free when `maps` has m entries.
-void sample_blend_maps(const Eigen::VectorXd& triangle_h, const HandleTransform& handle, std::vector<Eigen::Matrix3d>& maps);
+// One handle: from the barycentric field value h_t (in [0, 1]). cos and sin of h_t·θ come from a
+// table over [0, θ] plus a short Taylor step: within a few ulp of std::cos/std::sin, several
+// times faster. Allocation-free once the table has grown to the largest angle used.
+void sample_blend_maps(const Eigen::VectorXd& triangle_h, const HandleTransform& handle, AxialMaps& maps);
 // Several handles: from the interpolated components at the corners (n × 5, row-major: one row
 // per vertex), normalising the mean quaternion.
 void sample_interpolated_maps(const Eigen::Matrix<double, Eigen::Dynamic, kInterpolatedComponents, Eigen::RowMajor>& components,

@@ -25,6 +25,18 @@ struct DeformerOptions {
   SolveSchedule schedule = default_schedule();
 };
 
+// Where the last update's time went, milliseconds per stage (stages of one update may overlap:
+// the constrained targets are computed while the maps are).
+struct UpdateTimings {
+  double field_ms = 0.0;    // several handles: the five interpolated fields
+  double maps_ms = 0.0;     // per-triangle maps
+  double targets_ms = 0.0;  // fixed and handle positions
+  double rhs_ms = 0.0;      // Poisson right-hand side
+  double solve_ms = 0.0;    // x, y, z back-substitution
+  double write_ms = 0.0;    // free positions out
+  double total_ms = 0.0;    // the whole update, as the caller waits for it
+};
+
 struct DeformerTimings {  // set-up, milliseconds
   double laplacian_ms = 0.0;
   double factor_ms = 0.0;  // analyse + numeric factorization of L_ff
@@ -56,6 +68,8 @@ class Deformer {
   // Mesh and partition findings the user should see.
   std::vector<std::string> warnings() const;
 
+  const UpdateTimings& last_update() const { return last_update_; }
+
   // Deformed positions (n×3, resized if needed) for one transform per handle: one handle blends
   // its rotation and scale along h (§5), several interpolate q0..q3 and s harmonically (§7).
   // Not reentrant. Allocation-free once `positions` has the right size.
@@ -63,18 +77,22 @@ class Deformer {
 
  private:
   struct UpdateGraph;
+  void prepare_update_triangles();
 
   Mesh rest_;
   EditConstraints constraints_;
   DeformerOptions options_;
   DeformerTimings timings_;
+  UpdateTimings last_update_;
   CotangentWeights weights_;
   MeshInspection inspection_;
   VertexPartition partition_;
   std::unique_ptr<DirichletSystem> system_;
   std::unique_ptr<class PoissonAssembler> assembler_;
   Eigen::VectorXd field_;
-  Eigen::VectorXd triangle_field_;
+  std::vector<int> update_triangles_;      // mesh triangles with a free corner, in assembly order
+  Eigen::MatrixXi update_mesh_triangles_;  // their corners
+  Eigen::VectorXd triangle_field_;         // h at their barycenters
   std::unique_ptr<UpdateGraph> graph_;
 };
 

@@ -9,6 +9,7 @@
 #include <span>
 #include <vector>
 
+#include "hdeform/deformation_field.h"
 #include "hdeform/dirichlet_system.h"
 #include "hdeform/laplacian.h"
 #include "hdeform/mesh.h"
@@ -27,8 +28,13 @@ class PoissonAssembler {
   // number of threads. Allocation-free.
   void assemble(std::span<const Eigen::Matrix3d> maps, const Eigen::MatrixXd& positions, ColumnBlocks& rhs,
                 int first_column = 0) const;
+  // The same for maps about one axis (one handle): Σ T_t g = Σα g + a × Σβ g + a (a · Σγ g).
+  void assemble(const AxialMaps& maps, const Eigen::MatrixXd& positions, ColumnBlocks& rhs, int first_column = 0) const;
 
  private:
+  template <class CornerSum>
+  void assemble_rows(const Eigen::MatrixXd& positions, ColumnBlocks& rhs, int first_column, CornerSum corner_sum) const;
+
   struct Corner {
     int triangle;
     Eigen::Vector3d gradient;  // g_{t,i}

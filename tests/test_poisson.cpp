@@ -1,0 +1,88 @@
+#include <random>
+
+#include "hdeform/deformation_field.h"
+#include "hdeform/deformer.h"
+#include "hdeform/laplacian.h"
+#include "hdeform/poisson.h"
+#include "hdeform/shapes.h"
+#include "test_support.h"
+
+namespace hdeform {
+namespace {
+
+TEST(BlendMaps, TableTrigonometryMatchesTheDirectRotation) {
+  std::mt19937 random(3);
+  std::uniform_real_distribution<double> uniform(0.0, 1.0);
+  Eigen::VectorXd h(2000);
+  for (Eigen::Index t = 0; t < h.size(); ++t) h(t) = uniform(random);
+  h(0) = 0.0;
+  h(1) = 1.0;
+  const Eigen::Vector3d axis = Eigen::Vector3d(1, -2, 0.5).normalized();
+  for (const double angle : {0.0, 1e-7, 0.3, 3.14159, -2.5, 4.0 * 3.141592653589793, 61.0}) {
+    const auto handle = HandleTransform::twist_about(axis, Eigen::Vector3d(0.1, 0.2, 0.3), angle, 1.3);
+    AxialMaps maps;
+    sample_blend_maps(h, handle, maps);
+    double worst = 0.0;
+    for (Eigen::Index t = 0; t < h.size(); ++t) {
+      const Eigen::Matrix3d direct = blend_scale(handle, h(t)) * blend_rotation(handle, h(t)).toRotationMatrix();
+      worst = std::max(worst, (maps.matrix(static_cast<std::size_t>(t)) - direct).cwiseAbs().maxCoeff());
+    }
+    // h·θ itself carries a rounding error proportional to |θ|.
+    EXPECT_LE(worst, 1e-14 * std::max(1.0, std::abs(angle) / 12.0)) << "angle " << angle;
+  }
+}
+
+TEST(PoissonAssembler, AxialAndMatrixMapsGiveTheSameRightHandSide) {
+  auto shape = make_shape(ShapeKind::Cactus, 32);
+  const auto weights = cotangent_weights(shape.mesh);
+  const auto partition = partition_vertices(shape.mesh, weights, shape.demo_constraints);
+  const DirichletSystem system(cotangent_laplacian(shape.mesh, weights), partition, SolverBackend::Eigen);
+  const PoissonAssembler assembler(shape.mesh, weights, system);
+  std::mt19937 random(5);
+  std::uniform_real_distribution<double> uniform(0.0, 1.0);
+  Eigen::VectorXd h(shape.mesh.triangle_count());
+  for (Eigen::Index t = 0; t < h.size(); ++t) h(t) = uniform(random);
+  AxialMaps axial;
+  sample_blend_maps(h, shape.demo_transform, axial);
+  std::vector<Eigen::Matrix3d> matrices(axial.coefficients.size());
+  for (std::size_t t = 0; t < matrices.size(); ++t) matrices[t] = axial.matrix(t);
+
+  ColumnBlocks from_axial(system.free_count(), 3, SolveSchedule::Blocked), from_matrices(system.free_count(), 3, SolveSchedule::Blocked);
+  assembler.assemble(axial, shape.mesh.positions, from_axial);
+  assembler.assemble(matrices, shape.mesh.positions, from_matrices);
+  double scale = 0.0, worst = 0.0;
+  for (Eigen::Index row = 0; row < system.free_count(); ++row) {
+    for (int c = 0; c < 3; ++c) {
+      scale = std::max(scale, std::abs(from_matrices.at(row, c)));
+      worst = std::max(worst, std::abs(from_axial.at(row, c) - from_matrices.at(row, c)));
+    }
+  }
+  EXPECT_GT(scale, 0.0);
+  EXPECT_LE(worst, 1e-12 * scale);
+}
+
+TEST(PoissonAssembler, IdentityMapsGiveTheLaplacianOfThePositions) {
+  // b = L p when every T_t = I: with the constrained part moved to the right-hand side,
+  // b_f − L_fc p_c = L_ff p_f.
+  auto shape = make_shape(ShapeKind::Sphere, 24);
+  const auto weights = cotangent_weights(shape.mesh);
+  const auto partition = partition_vertices(shape.mesh, weights, shape.demo_constraints);
+  const auto laplacian = cotangent_laplacian(shape.mesh, weights);
+  const DirichletSystem system(laplacian, partition, SolverBackend::Eigen);
+  const PoissonAssembler assembler(shape.mesh, weights, system);
+  const std::vector<Eigen::Matrix3d> identity(static_cast<std::size_t>(shape.mesh.triangle_count()), Eigen::Matrix3d::Identity());
+  ColumnBlocks rhs(system.free_count(), 3, SolveSchedule::Blocked);
+  assembler.assemble(identity, shape.mesh.positions, rhs);
+  Eigen::MatrixXd free_positions = shape.mesh.positions;
+  for (const int v : partition.constrained_vertices) free_positions.row(v).setZero();
+  const Eigen::MatrixXd expected = laplacian * free_positions;
+  double worst = 0.0;
+  for (Eigen::Index row = 0; row < system.free_count(); ++row) {
+    const int v = system.vertex_of_row()[static_cast<std::size_t>(row)];
+    for (int c = 0; c < 3; ++c) worst = std::max(worst, std::abs(rhs.at(row, c) - expected(v, c)));
+  }
+  EXPECT_LE(worst, 1e-13 * expected.cwiseAbs().maxCoeff());
+}
+
+}  // namespace
+}  // namespace hdeform
