@@ -1,6 +1,4 @@
 // hdeform bench: the figures of the README's Performance section, as one JSON object.
-#include <sys/resource.h>
-
 #include <chrono>
 #include <fstream>
 #include <map>
@@ -18,12 +16,6 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 double since(Clock::time_point start) { return std::chrono::duration<double, std::milli>(Clock::now() - start).count(); }
-
-double peak_rss_mb() {
-  rusage usage{};
-  getrusage(RUSAGE_SELF, &usage);
-  return static_cast<double>(usage.ru_maxrss) / 1024.0;
-}
 
 // Splits one handle into two by the median x of its vertices: the two-handle scenario.
 std::vector<std::vector<int>> split_by_x(const Mesh& mesh, std::vector<int> handle) {

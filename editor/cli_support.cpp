@@ -1,5 +1,7 @@
 #include "cli_support.h"
 
+#include <sys/resource.h>
+
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
@@ -90,6 +92,12 @@ void refuse_overwriting_inputs(const std::string& output, const std::vector<std:
       throw UsageError("refusing to overwrite the input " + input + " (choose another output path)");
     }
   }
+}
+
+double peak_rss_mb() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  return static_cast<double>(usage.ru_maxrss) / 1024.0;
 }
 
 void print_json_line(const nlohmann::json& value) { std::cout << value.dump() << std::endl; }

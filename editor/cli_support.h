@@ -75,6 +75,9 @@ class Progress {
 // Refuses (UsageError) an output path that is one of the inputs: inputs are never overwritten.
 void refuse_overwriting_inputs(const std::string& output, const std::vector<std::string>& inputs);
 
+// Largest resident set size of this process so far, in MB.
+double peak_rss_mb();
+
 // Exactly one JSON object on one line of stdout.
 void print_json_line(const nlohmann::json& value);
 

@@ -115,6 +115,7 @@ class EditCommand final : public BatchCommand {
         {"field_ms", timings.field_ms},
         {"steps", steps_},
         {"step_ms", to_json(summarize(step_ms))},
+        {"peak_rss_mb", peak_rss_mb()},
         {"warnings", warnings},
         {"output", out_path_},
     };
