@@ -10,6 +10,9 @@
 #include "hdeform/constraint_io.h"
 #include "hdeform/deformer.h"
 #include "hdeform/errors.h"
+#ifdef HDEFORM_WITH_ENGINE
+#include "render_bench.h"
+#endif
 
 namespace hdeform::cli {
 namespace {
@@ -41,6 +44,14 @@ class BenchCommand final : public BatchCommand {
     command->add_option("--threads", threads_, "Worker threads (default: all cores)");
     command->add_option("--out", out_path_, "Also write the JSON report to this file");
     command->add_flag("--quiet", quiet_, "No progress on stderr");
+#ifdef HDEFORM_WITH_ENGINE
+    command->add_flag("--render", render_, "Measure rendering instead: frame times and publishing (offscreen)");
+    command->add_option("--size", render_options_.size, "--render: image size")->capture_default_str();
+    command->add_option("--samples", render_options_.samples, "--render: multisampling")->capture_default_str();
+    command->add_option("--frames", render_options_.frames, "--render: frames per measurement")->capture_default_str();
+    command->add_option("--device", render_options_.device, "--render: Vulkan device");
+    command->add_flag("--validation", render_options_.validation, "--render: Khronos validation layer");
+#endif
     return command;
   }
 
@@ -69,6 +80,19 @@ class BenchCommand final : public BatchCommand {
       throw UsageError("give --handle, --transform (and --fixed), or a --shape");
     }
     const Mesh& mesh = loaded.mesh;
+#ifdef HDEFORM_WITH_ENGINE
+    if (render_) {
+      progress("rendering benchmark");
+      nlohmann::json report = bench_rendering(mesh, constraints, transform, render_options_);
+      report["command"] = "bench";
+      report["mesh"] = source_.describe();
+      report["vertices"] = mesh.vertex_count();
+      report["triangles"] = mesh.triangle_count();
+      report["threads"] = solver.effective_threads();
+      finish(report);
+      return 0;
+    }
+#endif
 
     nlohmann::json report = {{"command", "bench"},
                              {"mesh", source_.describe()},
@@ -162,17 +186,20 @@ class BenchCommand final : public BatchCommand {
         if (schedule == default_schedule()) report["two_handle_stage_ms"] = stages;
       }
     }
-    report["peak_rss_mb"] = peak_rss_mb();
+    finish(report);
+    return 0;
+  }
 
+ private:
+  void finish(nlohmann::json& report) const {
+    report["peak_rss_mb"] = peak_rss_mb();
     if (!out_path_.empty()) {
       const std::string text = report.dump(2) + "\n";
       write_file_atomically(out_path_, [&](std::ostream& out) { out << text; });
     }
     print_json_line(report);
-    return 0;
   }
 
- private:
   MeshSource source_;
   std::string fixed_path_;
   std::string handle_path_;
@@ -181,6 +208,10 @@ class BenchCommand final : public BatchCommand {
   int steps_ = 30;
   int threads_ = 0;
   bool quiet_ = false;
+  bool render_ = false;
+#ifdef HDEFORM_WITH_ENGINE
+  RenderBenchOptions render_options_;
+#endif
 };
 
 }  // namespace

@@ -8,6 +8,9 @@
 #include "hdeform/deformer.h"
 #include "hdeform/errors.h"
 #include "hdeform/mesh_io.h"
+#ifdef HDEFORM_WITH_ENGINE
+#include "render_support.h"
+#endif
 
 namespace hdeform::cli {
 namespace {
@@ -27,6 +30,10 @@ class EditCommand final : public BatchCommand {
         ->capture_default_str();
     solver_.add_options(*command);
     command->add_flag("--quiet", quiet_, "No progress or warnings on stderr");
+#ifdef HDEFORM_WITH_ENGINE
+    command->add_option("--png", png_path_, "Also render the result to this PNG (fixed and handle vertices coloured)");
+    picture_.add_options(*command);
+#endif
     return command;
   }
 
@@ -41,6 +48,7 @@ class EditCommand final : public BatchCommand {
     inputs.insert(inputs.end(), handle_paths_.begin(), handle_paths_.end());
     inputs.insert(inputs.end(), transform_paths_.begin(), transform_paths_.end());
     refuse_overwriting_inputs(out_path_, inputs);
+    if (!png_path_.empty()) refuse_overwriting_inputs(png_path_, inputs);
     const auto threads = solver_.apply_threads();
     const Progress progress(quiet_);
     DeformerOptions options{solver_.parsed_backend(), solver_.parsed_schedule()};
@@ -95,6 +103,15 @@ class EditCommand final : public BatchCommand {
 
     progress("writing " + out_path_);
     write_obj(out_path_, Mesh{positions, deformer.rest().triangles});
+    nlohmann::json picture;
+#ifdef HDEFORM_WITH_ENGINE
+    if (!png_path_.empty()) {
+      progress("rendering " + png_path_);
+      engine::Scene scene{positions, deformer.rest().triangles, {}, vertex_classes(deformer.partition()), {},
+                          engine::Bounds::of(deformer.rest().positions), picture_.up_axis()};
+      picture = render_png(picture_, scene, png_path_);
+    }
+#endif
 
     const auto& partition = deformer.partition();
     const auto& timings = deformer.timings();
@@ -119,6 +136,7 @@ class EditCommand final : public BatchCommand {
         {"warnings", warnings},
         {"output", out_path_},
     };
+    if (!picture.is_null()) report["picture"] = picture;
     print_json_line(report);
     return 0;
   }
@@ -133,6 +151,10 @@ class EditCommand final : public BatchCommand {
   std::vector<std::string> transform_paths_;
   int steps_ = 1;
   bool quiet_ = false;
+  std::string png_path_;
+#ifdef HDEFORM_WITH_ENGINE
+  PictureOptions picture_;
+#endif
 };
 
 }  // namespace

@@ -7,6 +7,9 @@
 #include "hdeform/harmonic_field.h"
 #include "hdeform/laplacian.h"
 #include "hdeform/mesh_check.h"
+#ifdef HDEFORM_WITH_ENGINE
+#include "render_support.h"
+#endif
 
 namespace hdeform::cli {
 namespace {
@@ -21,12 +24,17 @@ class FieldCommand final : public BatchCommand {
     command->add_option("--out", out_path_, "Output: one value per vertex per line")->required();
     solver_.add_options(*command);
     command->add_flag("--quiet", quiet_, "No progress or warnings on stderr");
+#ifdef HDEFORM_WITH_ENGINE
+    command->add_option("--png", png_path_, "Also render the field to this PNG (the paper's Figure 1, left)");
+    picture_.add_options(*command);
+#endif
     return command;
   }
 
   int run() override {
     source_.require();
     refuse_overwriting_inputs(out_path_, {source_.mesh_path, sources_path_, sinks_path_});
+    if (!png_path_.empty()) refuse_overwriting_inputs(png_path_, {source_.mesh_path, sources_path_, sinks_path_});
     const auto threads = solver_.apply_threads();
     const Progress progress(quiet_);
     progress("reading " + source_.describe());
@@ -58,8 +66,16 @@ class FieldCommand final : public BatchCommand {
     const Eigen::VectorXd field = harmonic_field(system, partition);
     const double field_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
     write_values(out_path_, field);
+    nlohmann::json picture;
+#ifdef HDEFORM_WITH_ENGINE
+    if (!png_path_.empty()) {
+      progress("rendering " + png_path_);
+      engine::Scene scene{mesh.positions, mesh.triangles, field, vertex_classes(partition), {}, {}, picture_.up_axis()};
+      picture = render_png(picture_, scene, png_path_);
+    }
+#endif
 
-    print_json_line({
+    nlohmann::json report({
         {"command", "field"},
         {"mesh", source_.describe()},
         {"vertices", mesh.vertex_count()},
@@ -74,6 +90,8 @@ class FieldCommand final : public BatchCommand {
         {"warnings", warnings},
         {"output", out_path_},
     });
+    if (!picture.is_null()) report["picture"] = picture;
+    print_json_line(report);
     return 0;
   }
 
@@ -84,6 +102,10 @@ class FieldCommand final : public BatchCommand {
   std::string sinks_path_;
   std::string out_path_;
   bool quiet_ = false;
+  std::string png_path_;
+#ifdef HDEFORM_WITH_ENGINE
+  PictureOptions picture_;
+#endif
 };
 
 }  // namespace

@@ -7,6 +7,9 @@
 #include "batch_commands.h"
 #include "cli_support.h"
 #include "hdeform/errors.h"
+#ifdef HDEFORM_WITH_ENGINE
+#include "hdeform/engine/vulkan_context.h"
+#endif
 
 namespace {
 
@@ -22,7 +25,11 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", "hdeform 0.1.0");
 
   std::vector<std::pair<CLI::App*, std::unique_ptr<cli::BatchCommand>>> commands;
-  for (auto make : {cli::make_edit_command, cli::make_field_command, cli::make_bench_command}) {
+  for (auto make : {cli::make_edit_command, cli::make_field_command, cli::make_bench_command,
+#ifdef HDEFORM_WITH_ENGINE
+                    cli::make_render_command,
+#endif
+                   }) {
     auto command = make();
     CLI::App* sub = command->add_to(app);
     commands.emplace_back(sub, std::move(command));
@@ -52,6 +59,11 @@ int main(int argc, char** argv) {
   } catch (const SolveError& error) {
     std::cerr << "hdeform: error: " << error.what() << '\n';
     return kExitBadData;
+#ifdef HDEFORM_WITH_ENGINE
+  } catch (const engine::RenderError& error) {
+    std::cerr << "hdeform: error: " << error.what() << '\n';
+    return kExitBadData;
+#endif
   } catch (const std::bad_alloc&) {
     std::cerr << "hdeform: error: out of memory\n";
     return kExitBadData;

@@ -86,6 +86,29 @@ HandleTransform read_handle_transform(const std::filesystem::path& path) {
   }
 }
 
+Eigen::VectorXd read_values(const std::filesystem::path& path, Eigen::Index vertex_count) {
+  const std::string content = detail::read_text_file(path);
+  detail::reject_binary(path, content);
+  std::vector<double> values;
+  std::vector<std::string_view> tokens;
+  detail::for_each_line(content, [&](std::size_t line, std::string_view text) {
+    detail::split_tokens(text, tokens);
+    for (const auto token : tokens) {
+      const auto value = detail::parse_double(token);
+      if (!value) fail_at(path, line, quoted(token) + " is not a number");
+      if (!std::isfinite(*value)) fail_at(path, line, "non-finite value " + quoted(token));
+      if (static_cast<Eigen::Index>(values.size()) == vertex_count) {
+        fail_at(path, line, "more values than the mesh's " + std::to_string(vertex_count) + " vertices");
+      }
+      values.push_back(*value);
+    }
+  });
+  if (static_cast<Eigen::Index>(values.size()) != vertex_count) {
+    throw InputError(path.string() + ": " + std::to_string(values.size()) + " values for " + std::to_string(vertex_count) + " vertices");
+  }
+  return Eigen::Map<const Eigen::VectorXd>(values.data(), vertex_count);
+}
+
 void write_values(const std::filesystem::path& path, const Eigen::VectorXd& values) {
   std::string text;
   text.reserve(static_cast<std::size_t>(values.size()) * 24);

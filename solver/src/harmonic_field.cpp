@@ -8,7 +8,7 @@ Eigen::VectorXd harmonic_field(const DirichletSystem& system, const VertexPartit
     if (partition.role[v] == VertexRole::Handle) values(static_cast<Eigen::Index>(v), 0) = 1.0;
   }
   system.solve(values);
-  return values.col(0);
+  return values.col(0).cwiseMax(0.0).cwiseMin(1.0);
 }
 
 }  // namespace hdeform

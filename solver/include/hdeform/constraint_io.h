@@ -23,4 +23,7 @@ HandleTransform read_handle_transform(const std::filesystem::path& path);
 // One value per line, shortest round-trip decimal form, written atomically.
 void write_values(const std::filesystem::path& path, const Eigen::VectorXd& values);
 
+// The inverse: one finite number per vertex (white space separated, '#' comments).
+Eigen::VectorXd read_values(const std::filesystem::path& path, Eigen::Index vertex_count);
+
 }  // namespace hdeform

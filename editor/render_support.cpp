@@ -1,0 +1,127 @@
+#include "render_support.h"
+
+#include <chrono>
+#include <cmath>
+#include <numbers>
+#include <sstream>
+
+#include "cli_support.h"
+#include "hdeform/engine/image_io.h"
+#include "hdeform/engine/mesh_renderer.h"
+
+namespace hdeform::cli {
+namespace {
+
+// Comma-separated numbers; UsageError naming the option when malformed.
+std::vector<double> parse_numbers(const std::string& text, const std::string& option) {
+  std::vector<double> numbers;
+  std::stringstream stream(text);
+  std::string item;
+  while (std::getline(stream, item, ',')) {
+    try {
+      std::size_t used = 0;
+      numbers.push_back(std::stod(item, &used));
+      if (used != item.size() || !std::isfinite(numbers.back())) throw std::invalid_argument(item);
+    } catch (const std::exception&) {
+      throw UsageError(option + ": '" + item + "' is not a number");
+    }
+  }
+  return numbers;
+}
+
+}  // namespace
+
+void PictureOptions::add_options(CLI::App& command) {
+  command.add_option("--size", size, "Image size WIDTHxHEIGHT")->capture_default_str();
+  command.add_option("--camera", camera, "View: YAW,PITCH[,ZOOM] in degrees about the up axis (default: three-quarter front)");
+  command.add_option("--up", up, "Up axis of the mesh: z or y")->capture_default_str();
+  command.add_option("--range", range, "Field values at the colormap's ends: LO,HI (default 0,1)");
+  command.add_option("--isolines", isolines, "Isoline step in field units (0: none)")->capture_default_str();
+  command.add_option("--samples", samples, "Multisampling (reduced to what the device supports)")->capture_default_str();
+  command.add_flag("--wireframe", wireframe, "Draw the triangle edges");
+  command.add_flag("--flat", flat, "Flat shading");
+  command.add_flag("--no-ground", no_ground, "No ground grid");
+  command.add_flag("--no-lighting", no_lighting, "Plain colours, no shading");
+  command.add_flag("--no-legend", no_legend, "No colour bar");
+  command.add_option("--device", device, "Vulkan device: gpu, cpu, an index or part of a name (default: $HDEFORM_VULKAN_DEVICE, else the best)");
+  command.add_flag("--validation", validation, "Enable the Khronos validation layer");
+}
+
+engine::UpAxis PictureOptions::up_axis() const {
+  if (up == "z") return engine::UpAxis::Z;
+  if (up == "y") return engine::UpAxis::Y;
+  throw UsageError("--up must be z or y");
+}
+
+engine::Shot PictureOptions::shot(const engine::Bounds& bounds) const {
+  engine::Shot shot;
+  unsigned width = 0, height = 0;
+  char separator = 0;
+  std::stringstream size_stream(size);
+  if (!(size_stream >> width >> separator >> height) || separator != 'x' || !size_stream.eof() || width == 0 || height == 0 ||
+      width > 16384 || height > 16384) {
+    throw UsageError("--size must be WIDTHxHEIGHT, each 1 to 16384 (got '" + size + "')");
+  }
+  shot.width = width;
+  shot.height = height;
+  if (samples < 1) throw UsageError("--samples must be at least 1");
+  shot.samples = samples;
+  shot.settings.wireframe = wireframe;
+  shot.settings.flat_shading = flat;
+  shot.settings.ground = !no_ground;
+  shot.settings.lighting = !no_lighting;
+  shot.settings.legend = !no_legend;
+  if (isolines < 0.0) throw UsageError("--isolines must not be negative");
+  shot.settings.isoline_step = static_cast<float>(isolines);
+  if (!range.empty()) {
+    const auto values = parse_numbers(range, "--range");
+    if (values.size() != 2 || !(values[0] < values[1])) throw UsageError("--range must be LO,HI with LO < HI");
+    shot.settings.field_min = static_cast<float>(values[0]);
+    shot.settings.field_max = static_cast<float>(values[1]);
+  }
+  if (!camera.empty()) {
+    const auto values = parse_numbers(camera, "--camera");
+    if (values.size() < 2 || values.size() > 3 || (values.size() == 3 && !(values[2] > 0.0))) {
+      throw UsageError("--camera must be YAW,PITCH[,ZOOM] (degrees; zoom > 0)");
+    }
+    auto view = engine::Camera::three_quarter_front(bounds, up_axis(), static_cast<float>(width) / static_cast<float>(height));
+    view.yaw = static_cast<float>(values[0] * std::numbers::pi / 180.0);
+    view.pitch = static_cast<float>(values[1] * std::numbers::pi / 180.0);
+    if (values.size() == 3) view.distance *= static_cast<float>(values[2]);
+    shot.camera = view;
+  }
+  return shot;
+}
+
+engine::ContextOptions PictureOptions::context() const {
+  engine::ContextOptions options;
+  options.device = device;
+  options.validation = validation;
+  return options;
+}
+
+std::vector<uint32_t> vertex_classes(const VertexPartition& partition) {
+  std::vector<uint32_t> classes(partition.role.size(), HD_CLASS_FREE);
+  for (std::size_t v = 0; v < classes.size(); ++v) {
+    if (partition.role[v] == VertexRole::Fixed) classes[v] = engine::fixed_class();
+    if (partition.role[v] == VertexRole::Handle) classes[v] = engine::handle_class(static_cast<std::size_t>(partition.handle_index[v]));
+  }
+  return classes;
+}
+
+nlohmann::json render_png(const PictureOptions& options, const engine::Scene& scene, const std::string& path) {
+  const auto start = std::chrono::steady_clock::now();
+  const engine::Bounds bounds = scene.rest_bounds.radius() > 0.0f ? scene.rest_bounds : engine::Bounds::of(scene.positions);
+  const engine::Shot shot = options.shot(bounds);
+  const engine::VulkanContext context(options.context());
+  const engine::Pixels pixels = engine::render_offscreen(context, scene, shot);
+  engine::write_png(path, pixels);
+  return {{"png", path},
+          {"device", context.device_name()},
+          {"width", shot.width},
+          {"height", shot.height},
+          {"validation_messages", context.validation_message_count()},
+          {"render_ms", std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count()}};
+}
+
+}  // namespace hdeform::cli

@@ -1,0 +1,48 @@
+#pragma once
+// An orbit camera: it looks at a target from a distance, turned by yaw about the up axis and
+// pitched above the horizon. Vulkan conventions: clip y points down, depth in [0, 1].
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+namespace hdeform::engine {
+
+struct Bounds {
+  Eigen::Vector3f min = Eigen::Vector3f::Zero();
+  Eigen::Vector3f max = Eigen::Vector3f::Zero();
+  Eigen::Vector3f center() const { return 0.5f * (min + max); }
+  float radius() const { return 0.5f * (max - min).norm(); }
+  static Bounds of(const Eigen::MatrixXd& positions);
+};
+
+enum class UpAxis { Y, Z };
+
+struct Camera {
+  Eigen::Vector3f target = Eigen::Vector3f::Zero();
+  float distance = 3.0f;
+  float yaw = 0.0f;    // radians about the up axis; 0 looks from the front (+x for z-up, +z for y-up)
+  float pitch = 0.0f;  // radians above the horizon
+  float fov_y = 0.61f; // 35°
+  float scene_radius = 1.0f;
+  UpAxis up = UpAxis::Z;
+
+  // The default view: the bounds fill the view, seen from a three-quarter front angle, slightly
+  // from above.
+  static Camera three_quarter_front(const Bounds& bounds, UpAxis up, float aspect);
+  // Keeps the angles, moves target and distance so that the bounds fill the view.
+  void fit(const Bounds& bounds, float aspect);
+
+  void orbit(float delta_yaw, float delta_pitch);
+  // Moves the target in the view plane by a fraction of the view's height.
+  void pan(float right, float up_amount);
+  void zoom(float factor);  // distance *= factor
+
+  Eigen::Vector3f up_vector() const;
+  Eigen::Vector3f position() const;
+  Eigen::Matrix4f view() const;
+  Eigen::Matrix4f projection(float aspect) const;
+  Eigen::Matrix4f view_projection(float aspect) const { return projection(aspect) * view(); }
+  // The world-space ray through a pixel (x right, y down, in pixels of a width×height view).
+  Eigen::ParametrizedLine<float, 3> ray(float x, float y, float width, float height) const;
+};
+
+}  // namespace hdeform::engine

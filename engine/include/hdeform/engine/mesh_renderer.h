@@ -1,0 +1,122 @@
+#pragma once
+// Draws one mesh: smooth or flat shading, the scalar field as a colormap with isolines and a
+// colour bar, vertex classes, back faces tinted, an optional wireframe overlay, markers, and a
+// ground grid over a neutral background. The same object draws into any target created with a
+// compatible render pass (render_targets.h).
+#include <Eigen/Core>
+#include <span>
+#include <vector>
+
+#include "hdeform/engine/camera.h"
+#include "hdeform/engine/geometry_exchange.h"
+#include "hdeform/engine/render_targets.h"
+#include "hdeform/engine/vulkan_context.h"
+#include "render_config.h"
+
+namespace hdeform::engine {
+
+struct RenderSettings {
+  bool show_field = true;    // the field's colormap, when a field is set
+  bool show_classes = true;  // fixed and handle vertices in their colours
+  bool flat_shading = false;
+  bool wireframe = false;
+  bool lighting = true;      // off: plain colours (tests read colormap values directly)
+  bool ground = true;
+  bool legend = true;        // colour bar of the field's range, with a tick per isoline
+  // Back faces drawn (tinted): Auto draws them for open meshes only. On a closed mesh they are
+  // hidden unless it intersects itself, and skipping them halves a CPU rasterizer's work.
+  enum class BackFaces { Auto, Show, Cull } back_faces = BackFaces::Auto;
+  float field_min = 0.0f;    // the value at the colormap's start
+  float field_max = 1.0f;    // ... and at its end
+  float isoline_step = 0.1f; // 0: no isolines
+  float isoline_width = 1.5f;  // pixels
+};
+
+// Vertex classes as the shaders read them.
+inline uint32_t fixed_class() { return HD_CLASS_FIXED; }
+inline uint32_t handle_class(std::size_t handle) { return HD_CLASS_HANDLE_FIRST + static_cast<uint32_t>(handle); }
+
+struct Marker {
+  Eigen::Vector3f position;
+  uint32_t color = 0;  // index into the handle colours
+};
+
+class MeshRenderer {
+ public:
+  MeshRenderer(const VulkanContext& context, VkRenderPass render_pass, const PassFormat& format, uint32_t frames_in_flight);
+  ~MeshRenderer();
+  MeshRenderer(const MeshRenderer&) = delete;
+  MeshRenderer& operator=(const MeshRenderer&) = delete;
+
+  // A new mesh (waits until the device is idle). Its geometry then comes from `geometry`, which
+  // must outlive this renderer or the next set_mesh; `rest` places the ground and the camera.
+  void set_mesh(const Eigen::MatrixXi& triangles, GeometryExchange& geometry, const Bounds& rest, UpAxis up);
+  // Whether every edge of the mesh set last has two triangles (no boundary).
+  bool mesh_is_closed() const { return closed_; }
+  // Per-vertex field values (empty: none) and classes (empty: all free).
+  void set_field(std::span<const float> values);
+  void set_classes(std::span<const uint32_t> classes);
+  void set_markers(std::span<const Marker> markers);
+
+  // Before recording frame slot `frame` (whose previous submission the caller has waited for):
+  // takes the newest published geometry without waiting, uploads what changed, writes uniforms.
+  void prepare(uint32_t frame, const Camera& camera, const RenderSettings& settings, VkExtent2D extent);
+  // Records the draws inside a begun render pass.
+  void record(VkCommandBuffer commands, uint32_t frame, VkExtent2D extent) const;
+
+  // Version of the geometry the last prepare() uploaded for its frame (0: none yet).
+  std::uint64_t drawn_geometry_version() const { return drawn_geometry_version_; }
+
+ private:
+  struct Frame {
+    Buffer uniforms;
+    VkDescriptorSet descriptor = VK_NULL_HANDLE;
+    Buffer geometry;
+    std::uint64_t geometry_version = 0;
+    Buffer indices;
+    std::uint64_t indices_version = 0;
+    Buffer attributes;
+    std::uint64_t attributes_version = 0;
+    Buffer markers;
+    std::uint64_t markers_version = 0;
+    uint32_t marker_count = 0;
+    RenderSettings settings;  // as prepared
+    bool has_geometry = false;
+    bool field_visible = false;
+  };
+
+  void create_pipelines(VkRenderPass render_pass, const PassFormat& format);
+  void release_mesh_buffers();
+
+  const VulkanContext& context_;
+  VkDescriptorSetLayout descriptor_layout_ = VK_NULL_HANDLE;
+  VkDescriptorPool descriptor_pool_ = VK_NULL_HANDLE;
+  VkPipelineLayout pipeline_layout_ = VK_NULL_HANDLE;
+  VkPipeline background_ = VK_NULL_HANDLE;
+  VkPipeline surface_[2][2] = {};  // [flat shading][back faces culled]
+  VkPipeline wireframe_ = VK_NULL_HANDLE;  // null where the device cannot draw lines of polygons
+  VkPipeline ground_ = VK_NULL_HANDLE;
+  VkPipeline markers_ = VK_NULL_HANDLE;
+  VkPipeline legend_ = VK_NULL_HANDLE;
+  std::vector<Frame> frames_;
+
+  void order_triangle_corners();
+
+  GeometryExchange* geometry_ = nullptr;
+  Eigen::MatrixXi triangles_;
+  std::vector<uint32_t> indices_;  // triangles_, each rotated so that a constrained corner comes first
+  std::uint64_t indices_version_ = 1;
+  std::size_t vertex_count_ = 0;
+  Bounds rest_bounds_;
+  bool closed_ = false;
+  UpAxis up_ = UpAxis::Z;
+  std::vector<float> attributes_;  // field, class (as bits) per vertex
+  std::vector<uint32_t> classes_;
+  bool has_field_ = false;
+  std::uint64_t attributes_version_ = 1;
+  std::vector<Marker> markers_cpu_;
+  std::uint64_t markers_version_ = 1;
+  std::uint64_t drawn_geometry_version_ = 0;
+};
+
+}  // namespace hdeform::engine

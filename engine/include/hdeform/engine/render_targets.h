@@ -1,0 +1,76 @@
+#pragma once
+// Where frames go. Both targets share one render pass layout — multisampled colour and depth,
+// resolved into a single-sampled image — so the same pipelines draw into either:
+//   OffscreenTarget: an image read back to memory (no window system, no X server);
+//   SwapchainTarget: a window's swapchain (see swapchain_target.h).
+#include <cstdint>
+#include <vector>
+
+#include "hdeform/engine/vulkan_context.h"
+
+namespace hdeform::engine {
+
+struct PassFormat {
+  VkFormat color = VK_FORMAT_R8G8B8A8_UNORM;
+  VkFormat depth = VK_FORMAT_D32_SFLOAT;
+  VkSampleCountFlagBits samples = VK_SAMPLE_COUNT_1_BIT;
+};
+
+// A depth format the device can render to.
+VkFormat choose_depth_format(const VulkanContext& context);
+
+// Clears colour and depth, draws, resolves (when multisampled) into the single-sampled colour
+// attachment, which ends in `final_layout`.
+VkRenderPass create_scene_render_pass(const VulkanContext& context, const PassFormat& format, VkImageLayout final_layout);
+
+// The multisampled colour and the depth image of one framebuffer size.
+struct SceneAttachments {
+  Image multisampled_color;  // only when samples > 1
+  Image depth;
+  void create(const VulkanContext& context, const PassFormat& format, VkExtent2D extent);
+  void destroy(const VulkanContext& context);
+  // Framebuffer attachments in render pass order, around the single-sampled `target` view.
+  std::vector<VkImageView> views(const PassFormat& format, VkImageView target) const;
+};
+
+void begin_scene_pass(VkCommandBuffer commands, VkRenderPass pass, VkFramebuffer framebuffer, VkExtent2D extent);
+
+// RGBA, 8 bits per channel, rows top to bottom.
+struct Pixels {
+  uint32_t width = 0;
+  uint32_t height = 0;
+  std::vector<uint8_t> rgba;
+};
+
+class OffscreenTarget {
+ public:
+  OffscreenTarget(const VulkanContext& context, uint32_t width, uint32_t height, int samples);
+  ~OffscreenTarget();
+  OffscreenTarget(const OffscreenTarget&) = delete;
+  OffscreenTarget& operator=(const OffscreenTarget&) = delete;
+
+  VkRenderPass render_pass() const { return render_pass_; }
+  const PassFormat& format() const { return format_; }
+  VkExtent2D extent() const { return extent_; }
+
+  void begin(VkCommandBuffer commands);
+  // Ends the pass and copies the image into host memory; pixels() is valid once the commands ran.
+  void finish(VkCommandBuffer commands);
+  // Ends the pass only (frames that are not read back).
+  void end(VkCommandBuffer commands) { vkCmdEndRenderPass(commands); }
+  Pixels pixels() const;
+
+ private:
+  void release();
+
+  const VulkanContext& context_;
+  PassFormat format_;
+  VkExtent2D extent_;
+  VkRenderPass render_pass_ = VK_NULL_HANDLE;
+  SceneAttachments attachments_;
+  Image color_;
+  VkFramebuffer framebuffer_ = VK_NULL_HANDLE;
+  Buffer readback_;
+};
+
+}  // namespace hdeform::engine

@@ -1,0 +1,63 @@
+#pragma once
+// A window's swapchain as a render target (the window system stays outside: the context owns
+// the surface, and the caller says how big the framebuffer is). One render-finished semaphore
+// per swapchain image, as presentation may hold an image longer than a frame slot.
+#include <functional>
+#include <vector>
+
+#include "hdeform/engine/render_targets.h"
+
+namespace hdeform::engine {
+
+class SwapchainTarget {
+ public:
+  // `framebuffer_size` returns the window's framebuffer size in pixels (0×0 while minimised).
+  SwapchainTarget(const VulkanContext& context, std::function<VkExtent2D()> framebuffer_size, int samples, bool vsync);
+  ~SwapchainTarget();
+  SwapchainTarget(const SwapchainTarget&) = delete;
+  SwapchainTarget& operator=(const SwapchainTarget&) = delete;
+
+  VkRenderPass render_pass() const { return render_pass_; }
+  const PassFormat& format() const { return format_; }
+  VkExtent2D extent() const { return extent_; }
+  bool minimised() const { return extent_.width == 0 || extent_.height == 0; }
+
+  // Acquires the next image, signalling `image_available`. Returns false when there is nothing
+  // to draw into this time (minimised, or the swapchain was just rebuilt for a new size).
+  bool acquire(VkSemaphore image_available, uint32_t& image);
+  void begin(VkCommandBuffer commands, uint32_t image);
+  // Ends the pass; with `keep_copy` also copies the image for read_last_image().
+  void end(VkCommandBuffer commands, uint32_t image, bool keep_copy = false);
+  VkSemaphore render_finished(uint32_t image) const { return images_[image].render_finished; }
+  // Presents (waiting on render_finished); rebuilds the swapchain when it is out of date.
+  void present(uint32_t image);
+  // Rebuilds for the current framebuffer size (after a resize event).
+  void rebuild();
+  // The last image ended with keep_copy, once its frame has finished (RGBA).
+  Pixels read_last_image() const;
+
+ private:
+  struct SwapImage {
+    VkImage image = VK_NULL_HANDLE;
+    VkImageView view = VK_NULL_HANDLE;
+    VkFramebuffer framebuffer = VK_NULL_HANDLE;
+    VkSemaphore render_finished = VK_NULL_HANDLE;
+  };
+  void create_swapchain();
+  void destroy_swapchain();
+
+  const VulkanContext& context_;
+  std::function<VkExtent2D()> framebuffer_size_;
+  bool vsync_;
+  PassFormat format_;
+  VkColorSpaceKHR color_space_ = VK_COLOR_SPACE_SRGB_NONLINEAR_KHR;
+  VkRenderPass render_pass_ = VK_NULL_HANDLE;
+  VkSwapchainKHR swapchain_ = VK_NULL_HANDLE;
+  VkExtent2D extent_{0, 0};
+  std::vector<SwapImage> images_;
+  SceneAttachments attachments_;
+  Buffer copy_;
+  VkExtent2D copy_extent_{0, 0};
+};
+
+}  // namespace hdeform::engine

@@ -1,0 +1,72 @@
+#include "hdeform/engine/geometry_exchange.h"
+
+#include <Eigen/Geometry>
+#include <tbb/parallel_for.h>
+
+namespace hdeform::engine {
+
+GeometryExchange::GeometryExchange(std::size_t vertex_count) : vertex_count_(vertex_count) {
+  for (auto& slot : slots_) slot.position_normal.assign(6 * vertex_count, 0.0f);
+}
+
+void GeometryExchange::publish() {
+  slots_[back_].version = ++published_;
+  back_ = ready_.exchange(back_ | kFresh, std::memory_order_acq_rel) & ~kFresh;
+}
+
+const GeometrySnapshot* GeometryExchange::acquire() {
+  if (ready_.load(std::memory_order_acquire) & kFresh) {
+    front_ = ready_.exchange(front_, std::memory_order_acq_rel) & ~kFresh;
+    has_front_ = true;
+  }
+  return has_front_ ? &slots_[front_] : nullptr;
+}
+
+VertexNormals::VertexNormals(const Eigen::MatrixXi& triangles, Eigen::Index vertex_count)
+    : triangles_(triangles), triangle_start_(static_cast<std::size_t>(vertex_count) + 1, 0),
+      face_normals_(static_cast<std::size_t>(triangles.rows())) {
+  for (Eigen::Index t = 0; t < triangles.rows(); ++t) {
+    for (int k = 0; k < 3; ++k) ++triangle_start_[static_cast<std::size_t>(triangles(t, k)) + 1];
+  }
+  for (std::size_t v = 0; v + 1 < triangle_start_.size(); ++v) triangle_start_[v + 1] += triangle_start_[v];
+  incident_.resize(static_cast<std::size_t>(triangle_start_.back()));
+  std::vector<int> fill(triangle_start_.begin(), triangle_start_.end() - 1);
+  for (Eigen::Index t = 0; t < triangles.rows(); ++t) {
+    for (int k = 0; k < 3; ++k) incident_[static_cast<std::size_t>(fill[static_cast<std::size_t>(triangles(t, k))]++)] = static_cast<int>(t);
+  }
+}
+
+void VertexNormals::write(const Eigen::MatrixXd& positions, GeometrySnapshot& snapshot) {
+  tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, triangles_.rows(), 4096), [&](const auto& range) {
+    for (Eigen::Index t = range.begin(); t != range.end(); ++t) {
+      const Eigen::Vector3d a = positions.row(triangles_(t, 0)), b = positions.row(triangles_(t, 1)), c = positions.row(triangles_(t, 2));
+      face_normals_[static_cast<std::size_t>(t)] = (b - a).cross(c - a);  // length: twice the area
+    }
+  });
+  float* out = snapshot.position_normal.data();
+  tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, positions.rows(), 4096), [&](const auto& range) {
+    for (Eigen::Index v = range.begin(); v != range.end(); ++v) {
+      Eigen::Vector3d normal = Eigen::Vector3d::Zero();
+      for (int k = triangle_start_[static_cast<std::size_t>(v)]; k < triangle_start_[static_cast<std::size_t>(v) + 1]; ++k) {
+        normal += face_normals_[static_cast<std::size_t>(incident_[static_cast<std::size_t>(k)])];
+      }
+      const double length = normal.norm();
+      if (length > 0.0) normal /= length;
+      float* vertex = out + 6 * v;
+      for (int c = 0; c < 3; ++c) {
+        vertex[c] = static_cast<float>(positions(v, c));
+        vertex[3 + c] = static_cast<float>(normal(c));
+      }
+    }
+  });
+}
+
+GeometryPublisher::GeometryPublisher(GeometryExchange& exchange, const Eigen::MatrixXi& triangles)
+    : exchange_(exchange), normals_(triangles, static_cast<Eigen::Index>(exchange.vertex_count())) {}
+
+void GeometryPublisher::publish(const Eigen::MatrixXd& positions) {
+  normals_.write(positions, exchange_.back());
+  exchange_.publish();
+}
+
+}  // namespace hdeform::engine

@@ -1,0 +1,217 @@
+#include "hdeform/engine/swapchain_target.h"
+
+#include <algorithm>
+#include <cstring>
+
+namespace hdeform::engine {
+namespace {
+
+VkSurfaceFormatKHR choose_surface_format(const VulkanContext& context) {
+  uint32_t count = 0;
+  vkGetPhysicalDeviceSurfaceFormatsKHR(context.physical_device(), context.surface(), &count, nullptr);
+  std::vector<VkSurfaceFormatKHR> formats(count);
+  vkGetPhysicalDeviceSurfaceFormatsKHR(context.physical_device(), context.surface(), &count, formats.data());
+  if (formats.empty()) throw RenderError("the window surface offers no image format");
+  // UNORM like the offscreen target, so that a window and a PNG of the same view agree.
+  for (const VkFormat wanted : {VK_FORMAT_B8G8R8A8_UNORM, VK_FORMAT_R8G8B8A8_UNORM}) {
+    for (const auto& format : formats) {
+      if (format.format == wanted && format.colorSpace == VK_COLOR_SPACE_SRGB_NONLINEAR_KHR) return format;
+    }
+  }
+  return formats.front();
+}
+
+VkPresentModeKHR choose_present_mode(const VulkanContext& context, bool vsync) {
+  if (vsync) return VK_PRESENT_MODE_FIFO_KHR;
+  uint32_t count = 0;
+  vkGetPhysicalDeviceSurfacePresentModesKHR(context.physical_device(), context.surface(), &count, nullptr);
+  std::vector<VkPresentModeKHR> modes(count);
+  vkGetPhysicalDeviceSurfacePresentModesKHR(context.physical_device(), context.surface(), &count, modes.data());
+  for (const VkPresentModeKHR wanted : {VK_PRESENT_MODE_MAILBOX_KHR, VK_PRESENT_MODE_IMMEDIATE_KHR}) {
+    if (std::find(modes.begin(), modes.end(), wanted) != modes.end()) return wanted;
+  }
+  return VK_PRESENT_MODE_FIFO_KHR;
+}
+
+}  // namespace
+
+SwapchainTarget::SwapchainTarget(const VulkanContext& context, std::function<VkExtent2D()> framebuffer_size, int samples, bool vsync)
+    : context_(context), framebuffer_size_(std::move(framebuffer_size)), vsync_(vsync) {
+  if (context.surface() == VK_NULL_HANDLE) throw RenderError("a swapchain needs a context created with a window surface");
+  const VkSurfaceFormatKHR surface_format = choose_surface_format(context);
+  format_.color = surface_format.format;
+  color_space_ = surface_format.colorSpace;
+  format_.depth = choose_depth_format(context);
+  format_.samples = context.supported_samples(samples);
+  render_pass_ = create_scene_render_pass(context, format_, VK_IMAGE_LAYOUT_PRESENT_SRC_KHR);
+  create_swapchain();
+}
+
+SwapchainTarget::~SwapchainTarget() {
+  vkDeviceWaitIdle(context_.device());
+  destroy_swapchain();
+  context_.destroy(copy_);
+  vkDestroyRenderPass(context_.device(), render_pass_, nullptr);
+}
+
+void SwapchainTarget::create_swapchain() {
+  const VkDevice device = context_.device();
+  VkSurfaceCapabilitiesKHR capabilities;
+  check(vkGetPhysicalDeviceSurfaceCapabilitiesKHR(context_.physical_device(), context_.surface(), &capabilities),
+        "vkGetPhysicalDeviceSurfaceCapabilitiesKHR");
+  VkExtent2D wanted = framebuffer_size_();
+  if (capabilities.currentExtent.width != UINT32_MAX) wanted = capabilities.currentExtent;
+  extent_ = {std::clamp(wanted.width, capabilities.minImageExtent.width, capabilities.maxImageExtent.width),
+             std::clamp(wanted.height, capabilities.minImageExtent.height, capabilities.maxImageExtent.height)};
+  if (wanted.width == 0 || wanted.height == 0) {
+    extent_ = {0, 0};  // minimised: no swapchain until the window comes back
+    return;
+  }
+  uint32_t image_count = capabilities.minImageCount + 1;
+  if (capabilities.maxImageCount > 0) image_count = std::min(image_count, capabilities.maxImageCount);
+  VkSwapchainCreateInfoKHR info{VK_STRUCTURE_TYPE_SWAPCHAIN_CREATE_INFO_KHR};
+  info.surface = context_.surface();
+  info.minImageCount = image_count;
+  info.imageFormat = format_.color;
+  info.imageColorSpace = color_space_;
+  info.imageExtent = extent_;
+  info.imageArrayLayers = 1;
+  info.imageUsage = VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT;
+  if (capabilities.supportedUsageFlags & VK_IMAGE_USAGE_TRANSFER_SRC_BIT) info.imageUsage |= VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
+  info.imageSharingMode = VK_SHARING_MODE_EXCLUSIVE;
+  info.preTransform = capabilities.currentTransform;
+  info.compositeAlpha = VK_COMPOSITE_ALPHA_OPAQUE_BIT_KHR;
+  info.presentMode = choose_present_mode(context_, vsync_);
+  info.clipped = VK_TRUE;
+  check(vkCreateSwapchainKHR(device, &info, nullptr, &swapchain_), "vkCreateSwapchainKHR");
+
+  uint32_t count = 0;
+  vkGetSwapchainImagesKHR(device, swapchain_, &count, nullptr);
+  std::vector<VkImage> images(count);
+  vkGetSwapchainImagesKHR(device, swapchain_, &count, images.data());
+  attachments_.create(context_, format_, extent_);
+  images_.resize(count);
+  for (uint32_t i = 0; i < count; ++i) {
+    SwapImage& swap_image = images_[i];
+    swap_image.image = images[i];
+    VkImageViewCreateInfo view{VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO};
+    view.image = images[i];
+    view.viewType = VK_IMAGE_VIEW_TYPE_2D;
+    view.format = format_.color;
+    view.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
+    check(vkCreateImageView(device, &view, nullptr, &swap_image.view), "vkCreateImageView");
+    const auto views = attachments_.views(format_, swap_image.view);
+    VkFramebufferCreateInfo framebuffer{VK_STRUCTURE_TYPE_FRAMEBUFFER_CREATE_INFO};
+    framebuffer.renderPass = render_pass_;
+    framebuffer.attachmentCount = static_cast<uint32_t>(views.size());
+    framebuffer.pAttachments = views.data();
+    framebuffer.width = extent_.width;
+    framebuffer.height = extent_.height;
+    framebuffer.layers = 1;
+    check(vkCreateFramebuffer(device, &framebuffer, nullptr, &swap_image.framebuffer), "vkCreateFramebuffer");
+    VkSemaphoreCreateInfo semaphore{VK_STRUCTURE_TYPE_SEMAPHORE_CREATE_INFO};
+    check(vkCreateSemaphore(device, &semaphore, nullptr, &swap_image.render_finished), "vkCreateSemaphore");
+  }
+}
+
+void SwapchainTarget::destroy_swapchain() {
+  const VkDevice device = context_.device();
+  for (SwapImage& swap_image : images_) {
+    vkDestroySemaphore(device, swap_image.render_finished, nullptr);
+    vkDestroyFramebuffer(device, swap_image.framebuffer, nullptr);
+    vkDestroyImageView(device, swap_image.view, nullptr);
+  }
+  images_.clear();
+  attachments_.destroy(context_);
+  if (swapchain_ != VK_NULL_HANDLE) vkDestroySwapchainKHR(device, swapchain_, nullptr);
+  swapchain_ = VK_NULL_HANDLE;
+}
+
+void SwapchainTarget::rebuild() {
+  vkDeviceWaitIdle(context_.device());
+  destroy_swapchain();
+  create_swapchain();
+}
+
+bool SwapchainTarget::acquire(VkSemaphore image_available, uint32_t& image) {
+  if (swapchain_ == VK_NULL_HANDLE) {
+    const VkExtent2D size = framebuffer_size_();
+    if (size.width == 0 || size.height == 0) return false;
+    rebuild();
+    if (swapchain_ == VK_NULL_HANDLE) return false;
+  }
+  const VkResult result = vkAcquireNextImageKHR(context_.device(), swapchain_, UINT64_MAX, image_available, VK_NULL_HANDLE, &image);
+  if (result == VK_ERROR_OUT_OF_DATE_KHR) {
+    rebuild();
+    return false;
+  }
+  if (result != VK_SUBOPTIMAL_KHR) check(result, "vkAcquireNextImageKHR");
+  return true;
+}
+
+void SwapchainTarget::begin(VkCommandBuffer commands, uint32_t image) {
+  begin_scene_pass(commands, render_pass_, images_[image].framebuffer, extent_);
+}
+
+void SwapchainTarget::end(VkCommandBuffer commands, uint32_t image, bool keep_copy) {
+  vkCmdEndRenderPass(commands);
+  if (!keep_copy) return;
+  const VkDeviceSize bytes = VkDeviceSize{extent_.width} * extent_.height * 4;
+  if (copy_.size < bytes) {
+    context_.destroy(copy_);  // the caller waited for the frames that used it
+    copy_ = context_.create_buffer(bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT);
+  }
+  copy_extent_ = extent_;
+  VkImageMemoryBarrier barrier{VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER};
+  barrier.srcAccessMask = VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT;
+  barrier.dstAccessMask = VK_ACCESS_TRANSFER_READ_BIT;
+  barrier.oldLayout = VK_IMAGE_LAYOUT_PRESENT_SRC_KHR;
+  barrier.newLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
+  barrier.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+  barrier.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+  barrier.image = images_[image].image;
+  barrier.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
+  vkCmdPipelineBarrier(commands, VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0, nullptr, 0, nullptr,
+                       1, &barrier);
+  VkBufferImageCopy region{};
+  region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+  region.imageExtent = {extent_.width, extent_.height, 1};
+  vkCmdCopyImageToBuffer(commands, images_[image].image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, copy_.buffer, 1, &region);
+  barrier.srcAccessMask = VK_ACCESS_TRANSFER_READ_BIT;
+  barrier.dstAccessMask = 0;
+  barrier.oldLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
+  barrier.newLayout = VK_IMAGE_LAYOUT_PRESENT_SRC_KHR;
+  VkMemoryBarrier host{VK_STRUCTURE_TYPE_MEMORY_BARRIER};
+  host.srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+  host.dstAccessMask = VK_ACCESS_HOST_READ_BIT;
+  vkCmdPipelineBarrier(commands, VK_PIPELINE_STAGE_TRANSFER_BIT, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT | VK_PIPELINE_STAGE_HOST_BIT, 0, 1, &host,
+                       0, nullptr, 1, &barrier);
+}
+
+void SwapchainTarget::present(uint32_t image) {
+  const VkSemaphore wait = images_[image].render_finished;
+  VkPresentInfoKHR info{VK_STRUCTURE_TYPE_PRESENT_INFO_KHR};
+  info.waitSemaphoreCount = 1;
+  info.pWaitSemaphores = &wait;
+  info.swapchainCount = 1;
+  info.pSwapchains = &swapchain_;
+  info.pImageIndices = &image;
+  const VkResult result = vkQueuePresentKHR(context_.queue(), &info);
+  if (result == VK_ERROR_OUT_OF_DATE_KHR || result == VK_SUBOPTIMAL_KHR) {
+    rebuild();
+    return;
+  }
+  check(result, "vkQueuePresentKHR");
+}
+
+Pixels SwapchainTarget::read_last_image() const {
+  Pixels pixels{copy_extent_.width, copy_extent_.height, std::vector<uint8_t>(std::size_t{copy_extent_.width} * copy_extent_.height * 4)};
+  if (pixels.rgba.empty()) return pixels;
+  std::memcpy(pixels.rgba.data(), copy_.mapped, pixels.rgba.size());
+  if (format_.color == VK_FORMAT_B8G8R8A8_UNORM) {
+    for (std::size_t i = 0; i < pixels.rgba.size(); i += 4) std::swap(pixels.rgba[i], pixels.rgba[i + 2]);
+  }
+  return pixels;
+}
+
+}  // namespace hdeform::engine
