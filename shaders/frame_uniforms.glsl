@@ -11,8 +11,6 @@ layout(set = 0, binding = HD_BINDING_FRAME_UNIFORMS, std140) uniform FrameUnifor
   vec4 ground_u;           // xyz: unit axis in the ground plane, w: half extent
   vec4 ground_v;           // xyz: the other axis, w: radius where the grid has faded out
   vec4 viewport;           // x, y: size in pixels
-  vec4 background_top;
-  vec4 background_bottom;
   vec4 class_colors[HD_CLASS_COLORS];
   vec4 colormap[HD_COLORMAP_SAMPLES];
 } frame;
@@ -22,4 +20,17 @@ vec3 field_color(float value) {
   float position = t * float(HD_COLORMAP_SAMPLES - 1);
   int index = min(int(floor(position)), HD_COLORMAP_SAMPLES - 2);
   return mix(frame.colormap[index].rgb, frame.colormap[index + 1].rgb, position - float(index));
+}
+
+// Lighting of a surface with unit normal n (either side): x multiplies the albedo, y adds a
+// white highlight. A headlight-style fill plus a key light above and to the left.
+vec2 light_terms(vec3 n) {
+  if ((frame.flags.x & HD_LIGHTING) == 0u) return vec2(1.0, 0.0);
+  vec3 to_eye = frame.camera_position.xyz;
+  if (dot(n, to_eye) < 0.0) n = -n;
+  vec3 l = frame.light_direction.xyz;
+  float diffuse = max(dot(n, l), 0.0);
+  float fill = max(dot(n, to_eye), 0.0);
+  float specular = pow(max(dot(n, normalize(l + to_eye)), 0.0), 48.0);
+  return vec2(0.22 + 0.55 * diffuse + 0.30 * fill, 0.18 * specular);
 }

@@ -3,19 +3,14 @@
 #include "render_config.h"
 #include "frame_uniforms.glsl"
 
-layout(location = 0) in vec3 world_normal;
-layout(location = 1) in float field;
-layout(location = 2) in float class_weight;
-layout(location = 3) flat in uint triangle_class;
+layout(location = 0) in float field;
+layout(location = 1) in vec4 class_color;
 #ifdef HD_VARIANT_FLAT
-layout(location = 4) in vec3 world_position;
+layout(location = 2) in vec3 world_position;
+#else
+layout(location = 2) in vec2 light;
 #endif
 layout(location = 0) out vec4 color;
-
-vec3 class_color(uint vertex_class) {
-  if (vertex_class == HD_CLASS_FIXED) return frame.class_colors[0].rgb;
-  return frame.class_colors[1u + (vertex_class - HD_CLASS_HANDLE_FIRST) % uint(HD_HANDLE_COLORS)].rgb;
-}
 
 void main() {
   uint flags = frame.flags.x;
@@ -31,25 +26,12 @@ void main() {
       albedo = mix(albedo, vec3(0.08), 0.85 * line);
     }
   }
-  if ((flags & HD_SHOW_CLASSES) != 0u && triangle_class != HD_CLASS_FREE) {
-    albedo = mix(albedo, class_color(triangle_class), clamp(class_weight * 1.5, 0.0, 1.0));
+  if ((flags & HD_SHOW_CLASSES) != 0u && class_color.a > 0.0) {
+    albedo = mix(albedo, class_color.rgb / class_color.a, clamp(class_color.a, 0.0, 1.0));
   }
   if (!gl_FrontFacing) albedo = mix(albedo, frame.back_color.rgb, frame.back_color.a);
-
 #ifdef HD_VARIANT_FLAT
-  vec3 n = normalize(cross(dFdx(world_position), dFdy(world_position)));
-#else
-  vec3 n = normalize(world_normal);
+  vec2 light = light_terms(normalize(cross(dFdx(world_position), dFdy(world_position))));
 #endif
-  vec3 to_eye = frame.camera_position.xyz;  // the direction towards the viewer (see FrameUniforms)
-  if (dot(n, to_eye) < 0.0) n = -n;  // light both sides
-  vec3 shaded = albedo;
-  if ((flags & HD_LIGHTING) != 0u) {
-    vec3 l = frame.light_direction.xyz;
-    float diffuse = max(dot(n, l), 0.0);
-    float fill = max(dot(n, to_eye), 0.0);
-    float specular = pow(max(dot(n, normalize(l + to_eye)), 0.0), 48.0);
-    shaded = albedo * (0.22 + 0.55 * diffuse + 0.30 * fill) + vec3(0.18 * specular);
-  }
-  color = vec4(shaded, 1.0);
+  color = vec4(albedo * light.x + light.y, 1.0);
 }

@@ -6,8 +6,6 @@
 #include <cstring>
 
 #include "hdeform/engine/palette.h"
-#include "shaders/background_frag.h"
-#include "shaders/background_vert.h"
 #include "shaders/ground_frag.h"
 #include "shaders/ground_vert.h"
 #include "shaders/legend_frag.h"
@@ -37,12 +35,10 @@ struct FrameUniforms {
   float ground_u[4];
   float ground_v[4];
   float viewport[4];
-  float background_top[4];
-  float background_bottom[4];
   float class_colors[HD_CLASS_COLORS][4];
   float colormap[HD_COLORMAP_SAMPLES][4];
 };
-static_assert(sizeof(FrameUniforms) == 64 + 16 * (12 + HD_CLASS_COLORS + HD_COLORMAP_SAMPLES));
+static_assert(sizeof(FrameUniforms) == 64 + 16 * (10 + HD_CLASS_COLORS + HD_COLORMAP_SAMPLES));
 
 void store(float* out, const Eigen::Vector3f& v, float w) {
   out[0] = v.x();
@@ -216,11 +212,6 @@ MeshRenderer::MeshRenderer(const VulkanContext& context, VkRenderPass render_pas
 void MeshRenderer::create_pipelines(VkRenderPass render_pass, const PassFormat& format) {
   const VkDevice device = context_.device();
   const auto samples = format.samples;
-  PipelineSpec background{code(hdeform_spirv_background_vert), code(hdeform_spirv_background_frag)};
-  background.depth_test = false;
-  background.depth_write = false;
-  background_ = create_pipeline(device, pipeline_layout_, render_pass, samples, background);
-
   for (const int flat : {0, 1}) {
     for (const int cull : {0, 1}) {
       PipelineSpec surface{flat ? code(hdeform_spirv_mesh_flat_vert) : code(hdeform_spirv_mesh_vert),
@@ -266,7 +257,7 @@ MeshRenderer::~MeshRenderer() {
   vkDeviceWaitIdle(device);
   release_mesh_buffers();
   for (auto& frame : frames_) context_.destroy(frame.uniforms);
-  for (const VkPipeline pipeline : {background_, surface_[0][0], surface_[0][1], surface_[1][0], surface_[1][1], wireframe_, ground_,
+  for (const VkPipeline pipeline : {surface_[0][0], surface_[0][1], surface_[1][0], surface_[1][1], wireframe_, ground_,
                                     markers_, legend_}) {
     if (pipeline != VK_NULL_HANDLE) vkDestroyPipeline(device, pipeline, nullptr);
   }
@@ -276,9 +267,8 @@ MeshRenderer::~MeshRenderer() {
 }
 
 void MeshRenderer::release_mesh_buffers() {
+  context_.destroy(indices_);
   for (auto& frame : frames_) {
-    context_.destroy(frame.indices);
-    frame.indices_version = 0;
     context_.destroy(frame.geometry);
     context_.destroy(frame.attributes);
     context_.destroy(frame.markers);
@@ -294,9 +284,12 @@ void MeshRenderer::set_mesh(const Eigen::MatrixXi& triangles, GeometryExchange& 
   vertex_count_ = geometry.vertex_count();
   rest_bounds_ = rest;
   up_ = up;
-  triangles_ = triangles;
-  classes_.assign(vertex_count_, HD_CLASS_FREE);
-  order_triangle_corners();
+  index_count_ = static_cast<uint32_t>(triangles.size());
+  indices_ = context_.create_buffer(sizeof(uint32_t) * index_count_, VK_BUFFER_USAGE_INDEX_BUFFER_BIT);
+  auto* out = static_cast<uint32_t*>(indices_.mapped);
+  for (Eigen::Index t = 0; t < triangles.rows(); ++t) {
+    for (int k = 0; k < 3; ++k) *out++ = static_cast<uint32_t>(triangles(t, k));
+  }
   // Closed: every directed edge has its reverse (each edge in two consistently oriented triangles).
   std::vector<std::uint64_t> directed;
   directed.reserve(static_cast<std::size_t>(triangles.size()));
@@ -310,7 +303,6 @@ void MeshRenderer::set_mesh(const Eigen::MatrixXi& triangles, GeometryExchange& 
     return std::binary_search(directed.begin(), directed.end(), (edge << 32) | (edge >> 32));
   });
   for (auto& frame : frames_) {
-    frame.indices = context_.create_buffer(sizeof(uint32_t) * indices_.size(), VK_BUFFER_USAGE_INDEX_BUFFER_BIT);
     frame.geometry = context_.create_buffer(sizeof(float) * 6 * vertex_count_, VK_BUFFER_USAGE_VERTEX_BUFFER_BIT);
     frame.attributes = context_.create_buffer(sizeof(float) * 2 * vertex_count_, VK_BUFFER_USAGE_VERTEX_BUFFER_BIT);
   }
@@ -330,29 +322,9 @@ void MeshRenderer::set_field(std::span<const float> values) {
 void MeshRenderer::set_classes(std::span<const uint32_t> classes) {
   for (std::size_t v = 0; v < vertex_count_; ++v) {
     const uint32_t value = v < classes.size() ? classes[v] : HD_CLASS_FREE;
-    classes_[v] = value;
     std::memcpy(&attributes_[2 * v + 1], &value, sizeof value);
   }
   ++attributes_version_;
-  order_triangle_corners();
-}
-
-void MeshRenderer::order_triangle_corners() {
-  // The class colour of a triangle comes from its first (provoking) vertex: put a constrained
-  // corner first where there is one, handles before fixed. Rotation keeps the winding.
-  auto rank = [&](int v) {
-    const uint32_t c = classes_[static_cast<std::size_t>(v)];
-    return c >= HD_CLASS_HANDLE_FIRST ? 2 : (c == HD_CLASS_FIXED ? 1 : 0);
-  };
-  indices_.resize(static_cast<std::size_t>(triangles_.size()));
-  for (Eigen::Index t = 0; t < triangles_.rows(); ++t) {
-    int first = 0;
-    for (int k = 1; k < 3; ++k) {
-      if (rank(triangles_(t, k)) > rank(triangles_(t, first))) first = k;
-    }
-    for (int k = 0; k < 3; ++k) indices_[static_cast<std::size_t>(3 * t + k)] = static_cast<uint32_t>(triangles_(t, (first + k) % 3));
-  }
-  ++indices_version_;
 }
 
 void MeshRenderer::set_markers(std::span<const Marker> markers) {
@@ -373,10 +345,6 @@ void MeshRenderer::prepare(uint32_t frame_index, const Camera& camera, const Ren
       frame.has_geometry = true;
       drawn_geometry_version_ = frame.geometry_version;
     }
-  }
-  if (frame.indices_version != indices_version_ && frame.indices.mapped != nullptr) {
-    std::memcpy(frame.indices.mapped, indices_.data(), sizeof(uint32_t) * indices_.size());
-    frame.indices_version = indices_version_;
   }
   if (frame.attributes_version != attributes_version_ && frame.attributes.mapped != nullptr) {
     std::memcpy(frame.attributes.mapped, attributes_.data(), sizeof(float) * attributes_.size());
@@ -424,8 +392,6 @@ void MeshRenderer::prepare(uint32_t frame_index, const Camera& camera, const Ren
   store(u.ground_v, axis_v, 2.2f * radius);
   u.viewport[0] = static_cast<float>(extent.width);
   u.viewport[1] = static_cast<float>(extent.height);
-  store(u.background_top, {0.86f, 0.88f, 0.91f}, 1.0f);
-  store(u.background_bottom, {0.62f, 0.65f, 0.70f}, 1.0f);
   for (std::size_t k = 0; k < class_colors().size(); ++k) store(u.class_colors[k], class_colors()[k], 1.0f);
   for (std::size_t k = 0; k < colormap_samples().size(); ++k) store(u.colormap[k], colormap_samples()[k], 1.0f);
   std::memcpy(frame.uniforms.mapped, &u, sizeof u);
@@ -439,21 +405,18 @@ void MeshRenderer::record(VkCommandBuffer commands, uint32_t frame_index, VkExte
   vkCmdSetScissor(commands, 0, 1, &scissor);
   vkCmdBindDescriptorSets(commands, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline_layout_, 0, 1, &frame.descriptor, 0, nullptr);
 
-  vkCmdBindPipeline(commands, VK_PIPELINE_BIND_POINT_GRAPHICS, background_);
-  vkCmdDraw(commands, 3, 1, 0, 0);
-  const auto index_count = static_cast<uint32_t>(indices_.size());
-  if (frame.has_geometry && index_count > 0) {
+  if (frame.has_geometry && index_count_ > 0) {
     const std::array<VkBuffer, 2> buffers{frame.geometry.buffer, frame.attributes.buffer};
     const std::array<VkDeviceSize, 2> offsets{0, 0};
     vkCmdBindVertexBuffers(commands, HD_VERTEX_BINDING_GEOMETRY, 2, buffers.data(), offsets.data());
-    vkCmdBindIndexBuffer(commands, frame.indices.buffer, 0, VK_INDEX_TYPE_UINT32);
+    vkCmdBindIndexBuffer(commands, indices_.buffer, 0, VK_INDEX_TYPE_UINT32);
     using BackFaces = RenderSettings::BackFaces;
     const bool cull = frame.settings.back_faces == BackFaces::Cull || (frame.settings.back_faces == BackFaces::Auto && closed_);
     vkCmdBindPipeline(commands, VK_PIPELINE_BIND_POINT_GRAPHICS, surface_[frame.settings.flat_shading ? 1 : 0][cull ? 1 : 0]);
-    vkCmdDrawIndexed(commands, index_count, 1, 0, 0, 0);
+    vkCmdDrawIndexed(commands, index_count_, 1, 0, 0, 0);
     if (frame.settings.wireframe && wireframe_ != VK_NULL_HANDLE) {
       vkCmdBindPipeline(commands, VK_PIPELINE_BIND_POINT_GRAPHICS, wireframe_);
-      vkCmdDrawIndexed(commands, index_count, 1, 0, 0, 0);
+      vkCmdDrawIndexed(commands, index_count_, 1, 0, 0, 0);
     }
   }
   if (frame.settings.ground) {

@@ -99,7 +99,7 @@ std::vector<VkImageView> SceneAttachments::views(const PassFormat& format, VkIma
 
 void begin_scene_pass(VkCommandBuffer commands, VkRenderPass pass, VkFramebuffer framebuffer, VkExtent2D extent) {
   std::array<VkClearValue, 3> clear{};
-  clear[0].color = {{0.0f, 0.0f, 0.0f, 1.0f}};
+  clear[0].color = {{kBackground[0], kBackground[1], kBackground[2], 1.0f}};
   clear[1].depthStencil = {1.0f, 0};
   clear[2].color = clear[0].color;
   VkRenderPassBeginInfo begin{VK_STRUCTURE_TYPE_RENDER_PASS_BEGIN_INFO};

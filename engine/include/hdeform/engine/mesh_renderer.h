@@ -1,7 +1,8 @@
 #pragma once
 // Draws one mesh: smooth or flat shading, the scalar field as a colormap with isolines and a
 // colour bar, vertex classes, back faces tinted, an optional wireframe overlay, markers, and a
-// ground grid over a neutral background. The same object draws into any target created with a
+// ground grid over a neutral background (the clear colour: a full-screen gradient cost a CPU
+// rasterizer 12% of its frame). The same object draws into any target created with a
 // compatible render pass (render_targets.h).
 #include <Eigen/Core>
 #include <span>
@@ -73,8 +74,6 @@ class MeshRenderer {
     VkDescriptorSet descriptor = VK_NULL_HANDLE;
     Buffer geometry;
     std::uint64_t geometry_version = 0;
-    Buffer indices;
-    std::uint64_t indices_version = 0;
     Buffer attributes;
     std::uint64_t attributes_version = 0;
     Buffer markers;
@@ -92,7 +91,6 @@ class MeshRenderer {
   VkDescriptorSetLayout descriptor_layout_ = VK_NULL_HANDLE;
   VkDescriptorPool descriptor_pool_ = VK_NULL_HANDLE;
   VkPipelineLayout pipeline_layout_ = VK_NULL_HANDLE;
-  VkPipeline background_ = VK_NULL_HANDLE;
   VkPipeline surface_[2][2] = {};  // [flat shading][back faces culled]
   VkPipeline wireframe_ = VK_NULL_HANDLE;  // null where the device cannot draw lines of polygons
   VkPipeline ground_ = VK_NULL_HANDLE;
@@ -100,18 +98,14 @@ class MeshRenderer {
   VkPipeline legend_ = VK_NULL_HANDLE;
   std::vector<Frame> frames_;
 
-  void order_triangle_corners();
-
   GeometryExchange* geometry_ = nullptr;
-  Eigen::MatrixXi triangles_;
-  std::vector<uint32_t> indices_;  // triangles_, each rotated so that a constrained corner comes first
-  std::uint64_t indices_version_ = 1;
+  Buffer indices_;
+  uint32_t index_count_ = 0;
   std::size_t vertex_count_ = 0;
   Bounds rest_bounds_;
   bool closed_ = false;
   UpAxis up_ = UpAxis::Z;
   std::vector<float> attributes_;  // field, class (as bits) per vertex
-  std::vector<uint32_t> classes_;
   bool has_field_ = false;
   std::uint64_t attributes_version_ = 1;
   std::vector<Marker> markers_cpu_;

@@ -33,6 +33,9 @@ struct SceneAttachments {
   std::vector<VkImageView> views(const PassFormat& format, VkImageView target) const;
 };
 
+// The neutral background every picture is cleared to.
+inline constexpr float kBackground[3] = {0.80f, 0.82f, 0.85f};
+
 void begin_scene_pass(VkCommandBuffer commands, VkRenderPass pass, VkFramebuffer framebuffer, VkExtent2D extent);
 
 // RGBA, 8 bits per channel, rows top to bottom.
