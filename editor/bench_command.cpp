@@ -47,7 +47,7 @@ class BenchCommand final : public BatchCommand {
 #ifdef HDEFORM_WITH_ENGINE
     command->add_flag("--render", render_, "Measure rendering instead: frame times and publishing (offscreen)");
     command->add_option("--size", render_options_.size, "--render: image size")->capture_default_str();
-    command->add_option("--samples", render_options_.samples, "--render: multisampling")->capture_default_str();
+    command->add_option("--samples", render_options_.samples, "--render: multisampling (default: the editor's for the device)");
     command->add_option("--frames", render_options_.frames, "--render: frames per measurement")->capture_default_str();
     command->add_option("--device", render_options_.device, "--render: Vulkan device");
     command->add_flag("--validation", render_options_.validation, "--render: Khronos validation layer");

@@ -35,9 +35,10 @@ nlohmann::json bench_rendering(const Mesh& mesh, const EditConstraints& constrai
   if (options.frames < 10) throw UsageError("--frames must be at least 10");
   PictureOptions picture;
   picture.size = options.size;
-  picture.samples = options.samples;
   picture.device = options.device;
   picture.validation = options.validation;
+  const engine::VulkanContext context(picture.context());
+  picture.samples = options.samples > 0 ? options.samples : context.interactive_samples();
   const engine::Bounds bounds = engine::Bounds::of(mesh.positions);
   const engine::Shot shot = picture.shot(bounds);
 
@@ -45,7 +46,6 @@ nlohmann::json bench_rendering(const Mesh& mesh, const EditConstraints& constrai
   const Eigen::VectorXf field = deformer.field().cast<float>();
   const auto classes = vertex_classes(deformer.partition());
 
-  const engine::VulkanContext context(picture.context());
   engine::OffscreenTarget target(context, shot.width, shot.height, shot.samples);
   engine::FrameSlots slots(context);
   engine::MeshRenderer renderer(context, target.render_pass(), target.format(), slots.count());

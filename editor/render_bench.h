@@ -11,7 +11,7 @@ namespace hdeform::cli {
 
 struct RenderBenchOptions {
   std::string size = "1280x720";
-  int samples = 4;
+  int samples = 0;  // 0: what the editor uses on this device
   int frames = 120;
   std::string device;
   bool validation = false;

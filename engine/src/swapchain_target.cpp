@@ -134,9 +134,11 @@ void SwapchainTarget::rebuild() {
 }
 
 bool SwapchainTarget::acquire(VkSemaphore image_available, uint32_t& image) {
-  if (swapchain_ == VK_NULL_HANDLE) {
-    const VkExtent2D size = framebuffer_size_();
-    if (size.width == 0 || size.height == 0) return false;
+  // Not every presentation engine reports a resized window as out of date (lavapipe on X11
+  // does not), so the size is compared here.
+  const VkExtent2D size = framebuffer_size_();
+  if (size.width == 0 || size.height == 0) return false;
+  if (swapchain_ == VK_NULL_HANDLE || size.width != extent_.width || size.height != extent_.height) {
     rebuild();
     if (swapchain_ == VK_NULL_HANDLE) return false;
   }

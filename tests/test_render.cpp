@@ -1,0 +1,267 @@
+// Rendering on the Vulkan device (lavapipe in CI) with the validation layer on.
+#include <numbers>
+
+#include "hdeform/deformer.h"
+#include "hdeform/dirichlet_system.h"
+#include "hdeform/engine/frame_slots.h"
+#include "hdeform/engine/mesh_renderer.h"
+#include "hdeform/engine/offscreen.h"
+#include "hdeform/engine/palette.h"
+#include "hdeform/harmonic_field.h"
+#include "hdeform/laplacian.h"
+#include "hdeform/shapes.h"
+#include "render_support.h"
+#include "test_support.h"
+
+namespace hdeform {
+namespace {
+
+std::vector<uint32_t> classes_of(const VertexPartition& partition) {
+  std::vector<uint32_t> classes(partition.role.size(), HD_CLASS_FREE);
+  for (std::size_t v = 0; v < classes.size(); ++v) {
+    if (partition.role[v] == VertexRole::Fixed) classes[v] = engine::fixed_class();
+    if (partition.role[v] == VertexRole::Handle) classes[v] = engine::handle_class(static_cast<std::size_t>(partition.handle_index[v]));
+  }
+  return classes;
+}
+
+// The cactus of the demo with its harmonic field (the paper's Figure 1, left) and, bent, its
+// centre.
+struct CactusScenes {
+  engine::Scene field;
+  engine::Scene bent;
+};
+
+CactusScenes cactus_scenes() {
+  auto shape = make_shape(ShapeKind::Cactus, kDefaultShapeResolution);
+  Deformer deformer(shape.mesh, shape.demo_constraints);
+  Eigen::MatrixXd bent;
+  deformer.deform(std::span(&shape.demo_transform, 1), bent);
+  CactusScenes scenes;
+  scenes.field = {shape.mesh.positions, shape.mesh.triangles, deformer.field(), classes_of(deformer.partition()), {}, {}, engine::UpAxis::Z};
+  scenes.bent = {bent, shape.mesh.triangles, {}, classes_of(deformer.partition()), {}, engine::Bounds::of(shape.mesh.positions), engine::UpAxis::Z};
+  return scenes;
+}
+
+class Render : public ::testing::Test {
+ protected:
+  void SetUp() override { context = test::validated_context(); }
+  void TearDown() override {
+    EXPECT_EQ(context->validation_message_count(), 0u) << "Vulkan validation reported problems (see stderr)";
+  }
+  std::unique_ptr<engine::VulkanContext> context;
+};
+
+TEST_F(Render, CactusFieldMatchesGolden) {
+  test::expect_matches_golden(engine::render_offscreen(*context, cactus_scenes().field, {}), "cactus-field");
+}
+
+TEST_F(Render, BentCactusMatchesGolden) {
+  test::expect_matches_golden(engine::render_offscreen(*context, cactus_scenes().bent, {}), "cactus-bent");
+}
+
+TEST_F(Render, GoldenComparisonCatchesWrongPictures) {
+  const auto scenes = cactus_scenes();
+  const engine::Pixels right = engine::render_offscreen(*context, scenes.field, {});
+  engine::Pixels swapped = right;  // red and blue exchanged
+  for (std::size_t p = 0; p < swapped.rgba.size(); p += 4) std::swap(swapped.rgba[p], swapped.rgba[p + 2]);
+  engine::Shot turned;
+  turned.camera = engine::Camera::three_quarter_front(engine::Bounds::of(scenes.field.positions), engine::UpAxis::Z, 1.0f);
+  turned.camera->yaw += 0.2f;
+  engine::Shot other_range;
+  other_range.settings.field_max = 0.5f;
+  engine::Scene no_mesh = scenes.field;
+  no_mesh.triangles.resize(0, 3);
+  for (const auto& wrong : {swapped, engine::render_offscreen(*context, scenes.field, turned), engine::render_offscreen(*context, scenes.field, other_range),
+                            engine::render_offscreen(*context, no_mesh, {})}) {
+    EXPECT_GT(test::compare_images(right, wrong, 24).differing_fraction, 0.005);
+  }
+  // ... while a render of the same scene does match.
+  EXPECT_EQ(test::compare_images(right, engine::render_offscreen(*context, scenes.field, {}), 24).differing_fraction, 0.0);
+}
+
+// A unit square facing the camera, field = x: the colour bar of the picture itself.
+engine::Pixels render_ramp(const engine::VulkanContext& context, float isoline_step) {
+  engine::Scene scene;
+  const Mesh plane = test::planar_grid(24);
+  scene.positions = plane.positions;
+  scene.triangles = plane.triangles;
+  scene.field = plane.positions.col(0);
+  scene.up = engine::UpAxis::Y;
+  engine::Shot shot;
+  shot.width = shot.height = 256;
+  shot.settings.lighting = false;
+  shot.settings.ground = false;
+  shot.settings.legend = false;
+  shot.settings.isoline_step = isoline_step;
+  auto camera = engine::Camera::three_quarter_front(engine::Bounds::of(plane.positions), engine::UpAxis::Y, 1.0f);
+  camera.yaw = camera.pitch = 0.0f;  // straight at the plane: x maps linearly to columns
+  shot.camera = camera;
+  return engine::render_offscreen(context, scene, shot);
+}
+
+TEST_F(Render, ColormapMapsZeroAndOneToItsEnds) {
+  const engine::Pixels image = render_ramp(*context, 0.0f);
+  const uint32_t row = image.height / 2;
+  const Eigen::Vector3f background(engine::kBackground[0], engine::kBackground[1], engine::kBackground[2]);
+  uint32_t left = 0, right = image.width - 1;
+  while (left < image.width && (test::pixel(image, left, row) - background).norm() < 0.02f) ++left;
+  while (right > 0 && (test::pixel(image, right, row) - background).norm() < 0.02f) --right;
+  ASSERT_GT(right, left + 100) << "the plane is not where the camera should put it";
+  const float span = static_cast<float>(right - left);
+  for (const uint32_t x : {left + 2, left + (right - left) / 2, right - 2}) {
+    const float t = (static_cast<float>(x) + 0.5f - static_cast<float>(left)) / span;
+    EXPECT_LE((test::pixel(image, x, row) - engine::colormap(t)).cwiseAbs().maxCoeff(), 0.03f) << "column " << x << ", t " << t;
+  }
+  EXPECT_LE((test::pixel(image, left + 1, row) - engine::colormap(0.0f)).cwiseAbs().maxCoeff(), 0.03f);
+  EXPECT_LE((test::pixel(image, right - 1, row) - engine::colormap(1.0f)).cwiseAbs().maxCoeff(), 0.03f);
+  EXPECT_GT((engine::colormap(0.0f) - engine::colormap(1.0f)).norm(), 0.5f);
+}
+
+TEST_F(Render, IsolinesAppearWhereTheFieldCrossesTheirValues) {
+  const engine::Pixels plain = render_ramp(*context, 0.0f);
+  const engine::Pixels lined = render_ramp(*context, 0.25f);
+  const uint32_t row = plain.height / 2;
+  const Eigen::Vector3f background(engine::kBackground[0], engine::kBackground[1], engine::kBackground[2]);
+  uint32_t left = 0, right = plain.width - 1;
+  while ((test::pixel(plain, left, row) - background).norm() < 0.02f) ++left;
+  while ((test::pixel(plain, right, row) - background).norm() < 0.02f) --right;
+  const float span = static_cast<float>(right - left);
+  for (const float value : {0.25f, 0.5f, 0.75f}) {
+    const auto x = static_cast<uint32_t>(std::lround(static_cast<float>(left) + value * span - 0.5f));
+    float darkest = 1.0f;
+    for (uint32_t dx = x - 1; dx <= x + 1; ++dx) darkest = std::min(darkest, test::pixel(lined, dx, row).sum());
+    EXPECT_LT(darkest, 0.5f * test::pixel(plain, x, row).sum()) << "no isoline at " << value;
+    // Between the lines the colours are the plain ramp's.
+    const auto between = static_cast<uint32_t>(std::lround(static_cast<float>(left) + (value - 0.125f) * span));
+    EXPECT_LE((test::pixel(lined, between, row) - test::pixel(plain, between, row)).cwiseAbs().maxCoeff(), 0.02f);
+  }
+}
+
+TEST_F(Render, EveryOptionRendersWithoutValidationMessages) {
+  auto scene = cactus_scenes().field;
+  for (const auto& position : {Eigen::Vector3f(0.1f, -0.2f, 0.5f), Eigen::Vector3f(0.0f, 0.1f, 0.7f)}) {
+    scene.markers.push_back({position, 2});
+  }
+  engine::Shot shot;
+  shot.width = 300;
+  shot.height = 200;
+  shot.settings.wireframe = true;
+  shot.settings.flat_shading = true;
+  shot.settings.back_faces = engine::RenderSettings::BackFaces::Show;
+  const engine::Pixels image = engine::render_offscreen(*context, scene, shot);
+  EXPECT_EQ(image.width, 300u);
+  shot.samples = 1;
+  shot.settings.show_classes = false;
+  shot.settings.flat_shading = false;
+  shot.settings.back_faces = engine::RenderSettings::BackFaces::Cull;
+  engine::render_offscreen(*context, scene, shot);
+}
+
+TEST_F(Render, BackFacesOfAnOpenMeshAreTinted) {
+  // The unit square seen from behind: its back face shows, in the back-face tint.
+  engine::Scene scene;
+  const Mesh plane = test::planar_grid(4);
+  scene.positions = plane.positions;
+  scene.triangles = plane.triangles;
+  scene.up = engine::UpAxis::Y;
+  engine::Shot shot;
+  shot.width = shot.height = 64;
+  shot.settings.ground = false;
+  shot.settings.lighting = false;
+  auto camera = engine::Camera::three_quarter_front(engine::Bounds::of(plane.positions), engine::UpAxis::Y, 1.0f);
+  camera.yaw = camera.pitch = 0.0f;
+  shot.camera = camera;
+  const Eigen::Vector3f front = test::pixel(engine::render_offscreen(*context, scene, shot), 32, 32);
+  shot.camera->yaw = static_cast<float>(std::numbers::pi);
+  const Eigen::Vector3f back = test::pixel(engine::render_offscreen(*context, scene, shot), 32, 32);
+  EXPECT_GT((front - back).norm(), 0.15f);
+  EXPECT_GT(back.x(), back.y());  // the tint is purple-red
+}
+
+TEST(GeometryExchange, TheReaderGetsTheNewestPublicationWithoutWaiting) {
+  engine::GeometryExchange exchange(2);
+  EXPECT_EQ(exchange.acquire(), nullptr);
+  for (float value : {1.0f, 2.0f, 3.0f}) {
+    std::fill(exchange.back().position_normal.begin(), exchange.back().position_normal.end(), value);
+    exchange.publish();
+  }
+  const auto* newest = exchange.acquire();
+  ASSERT_NE(newest, nullptr);
+  EXPECT_EQ(newest->position_normal[0], 3.0f);
+  EXPECT_EQ(newest->version, 3u);
+  EXPECT_EQ(exchange.acquire(), newest);  // nothing new: the same snapshot again
+  std::fill(exchange.back().position_normal.begin(), exchange.back().position_normal.end(), 4.0f);
+  exchange.publish();
+  EXPECT_EQ(exchange.acquire()->position_normal[0], 4.0f);
+}
+
+TEST_F(Render, TheNextFrameShowsTheLatestOfTwoPublications) {
+  // Publish twice between frames: the frame shows the second positions, not the first.
+  auto shape = make_shape(ShapeKind::Sphere, 16);
+  engine::OffscreenTarget target(*context, 128, 128, 1);
+  engine::FrameSlots slots(*context, 1);
+  engine::MeshRenderer renderer(*context, target.render_pass(), target.format(), 1);
+  engine::GeometryExchange exchange(static_cast<std::size_t>(shape.mesh.vertex_count()));
+  engine::GeometryPublisher publisher(exchange, shape.mesh.triangles);
+  const engine::Bounds bounds{Eigen::Vector3f(-1.5f, -1.5f, -0.5f), Eigen::Vector3f(1.5f, 1.5f, 0.5f)};
+  renderer.set_mesh(shape.mesh.triangles, exchange, bounds, engine::UpAxis::Z);
+  auto camera = engine::Camera::three_quarter_front(bounds, engine::UpAxis::Z, 1.0f);
+  camera.yaw = 0.0f;
+  camera.pitch = 1.5f;  // from above: +y is to the right... of the picture's columns
+  engine::RenderSettings settings;
+  settings.ground = false;
+  auto frame = [&] {
+    auto& slot = slots.begin();
+    renderer.prepare(slot.index, camera, settings, target.extent());
+    target.begin(slot.commands);
+    renderer.record(slot.commands, slot.index, target.extent());
+    target.finish(slot.commands);
+    slots.submit(slot);
+    slots.wait_all();
+    return target.pixels();
+  };
+  // Column of the mesh's centre of coverage.
+  auto centre_column = [&](const engine::Pixels& image) {
+    const Eigen::Vector3f background(engine::kBackground[0], engine::kBackground[1], engine::kBackground[2]);
+    double sum = 0.0, count = 0.0;
+    for (uint32_t y = 0; y < image.height; ++y) {
+      for (uint32_t x = 0; x < image.width; ++x) {
+        if ((test::pixel(image, x, y) - background).norm() > 0.05f) {
+          sum += x;
+          ++count;
+        }
+      }
+    }
+    return count > 0 ? sum / count : -1.0;
+  };
+  Eigen::MatrixXd left = shape.mesh.positions, right = shape.mesh.positions;
+  left.col(1).array() -= 0.8;
+  right.col(1).array() += 0.8;
+  publisher.publish(left);
+  const double first = centre_column(frame());
+  publisher.publish(left);
+  publisher.publish(right);  // two publications before the next frame
+  const double second = centre_column(frame());
+  EXPECT_EQ(renderer.drawn_geometry_version(), 3u);
+  EXPECT_GT(std::abs(second - first), 20.0) << "the frame did not show the newest publication";
+}
+
+TEST(VulkanContext, AnUnknownDeviceIsAClearError) {
+  engine::ContextOptions options;
+  options.device = "no-such-device-anywhere";
+  options.announce = false;
+  try {
+    engine::VulkanContext context(options);
+    FAIL() << "no error";
+  } catch (const engine::RenderError& error) {
+    EXPECT_NE(std::string(error.what()).find("no Vulkan device matches 'no-such-device-anywhere'"), std::string::npos) << error.what();
+    EXPECT_NE(std::string(error.what()).find("devices:"), std::string::npos);
+  }
+  options.device = "cpu";
+  const engine::VulkanContext cpu(options);
+  EXPECT_TRUE(cpu.is_cpu_device());
+}
+
+}  // namespace
+}  // namespace hdeform
