@@ -79,7 +79,7 @@ class EditCommand final : public BatchCommand {
     auto warnings = deformer.warnings();
     if (transforms.size() > 1) {
       for (std::size_t h = 0; h < transforms.size(); ++h) {
-        if (transforms[h].twist && std::abs(transforms[h].angle) > std::numbers::pi) {
+        if (std::abs(transforms[h].angle) > std::numbers::pi) {
           warnings.push_back("handle " + std::to_string(h + 1) +
                              ": with several handles rotations are interpolated as quaternions, so a twist beyond half a turn "
                              "counts modulo a full turn");

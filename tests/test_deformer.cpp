@@ -93,7 +93,7 @@ TEST(Reconstruction, ConstrainedVerticesAreExactAndTheRestIsSmooth) {
 
 TEST(Twist, SevenHundredTwentyDegreesGrowsMonotonicallyAlongTheBar) {
   auto shape = make_shape(ShapeKind::Bar, 32);  // 8 × 8 × 50 cells, z from 0 to 1
-  const auto twist = HandleTransform::twist_about(Eigen::Vector3d::UnitZ(), Eigen::Vector3d::Zero(), 4.0 * kPi);
+  const auto twist = HandleTransform::about_pivot(Eigen::Vector3d::UnitZ(), Eigen::Vector3d::Zero(), 4.0 * kPi);
   EXPECT_LE((twist.linear - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff(), 1e-12);  // the handle does not move
   Deformer deformer(shape.mesh, shape.demo_constraints);
   Eigen::MatrixXd positions;

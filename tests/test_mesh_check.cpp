@@ -83,7 +83,9 @@ TEST(MeshCheck, StanfordBunnyWithUnreferencedVerticesAndHoles) {
   deformer.deform(std::span(&transform, 1), positions);
   ASSERT_TRUE(positions.allFinite());
   for (Eigen::Index v = 0; v < bunny.vertex_count(); ++v) {
-    if (deformer.partition().role[static_cast<std::size_t>(v)] == VertexRole::Fixed) EXPECT_EQ(positions.row(v), bunny.positions.row(v));
+    if (deformer.partition().role[static_cast<std::size_t>(v)] == VertexRole::Fixed) {
+      EXPECT_EQ(positions.row(v), bunny.positions.row(v));
+    }
   }
 }
 

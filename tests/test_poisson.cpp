@@ -19,7 +19,7 @@ TEST(BlendMaps, TableTrigonometryMatchesTheDirectRotation) {
   h(1) = 1.0;
   const Eigen::Vector3d axis = Eigen::Vector3d(1, -2, 0.5).normalized();
   for (const double angle : {0.0, 1e-7, 0.3, 3.14159, -2.5, 4.0 * 3.141592653589793, 61.0}) {
-    const auto handle = HandleTransform::twist_about(axis, Eigen::Vector3d(0.1, 0.2, 0.3), angle, 1.3);
+    const auto handle = HandleTransform::about_pivot(axis, Eigen::Vector3d(0.1, 0.2, 0.3), angle, 1.3);
     AxialMaps maps;
     sample_blend_maps(h, handle, maps);
     double worst = 0.0;

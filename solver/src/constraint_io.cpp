@@ -65,7 +65,7 @@ HandleTransform read_handle_transform(const std::filesystem::path& path) {
       }
       const Eigen::Vector3d axis(numbers[0], numbers[1], numbers[2]);
       const Eigen::Vector3d point(numbers[3], numbers[4], numbers[5]);
-      return HandleTransform::twist_about(axis, point, numbers[6] * std::numbers::pi / 180.0, numbers.size() == 8 ? numbers[7] : 1.0);
+      return HandleTransform::about_pivot(axis, point, numbers[6] * std::numbers::pi / 180.0, numbers.size() == 8 ? numbers[7] : 1.0);
     }
     if (numbers.size() == 16) {
       if (numbers[12] != 0.0 || numbers[13] != 0.0 || numbers[14] != 0.0 || numbers[15] != 1.0) {

@@ -54,9 +54,9 @@ struct Deformer::UpdateGraph {
   template <class Body>
   Node& add(double* stage_ms, Body body) {
     nodes.push_back(std::make_unique<Node>(graph, [body, stage_ms](const Message&) {
-      const auto start = Clock::now();
+      const auto began = Clock::now();
       body();
-      *stage_ms += milliseconds_since(start);
+      *stage_ms += milliseconds_since(began);
     }));
     return *nodes.back();
   }

@@ -42,28 +42,29 @@ HandleTransform HandleTransform::from_affine(const Eigen::Matrix<double, 3, 4>& 
   return transform;
 }
 
-HandleTransform HandleTransform::twist_about(const Eigen::Vector3d& axis, const Eigen::Vector3d& point, double angle,
-                                             double scale) {
-  if (!axis.allFinite() || !point.allFinite() || !std::isfinite(angle) || !std::isfinite(scale)) {
-    throw InputError("the twist has a non-finite value");
+HandleTransform HandleTransform::about_pivot(const Eigen::Vector3d& axis, const Eigen::Vector3d& pivot, double angle, double scale,
+                                             const Eigen::Vector3d& shift) {
+  if (!axis.allFinite() || !pivot.allFinite() || !shift.allFinite() || !std::isfinite(angle) || !std::isfinite(scale)) {
+    throw InputError("the handle pose has a non-finite value");
   }
-  if (!(axis.norm() > 0.0)) throw InputError("the twist axis is zero");
-  if (!(scale > 0.0)) throw InputError("the twist scale must be positive");
+  if (!(axis.norm() > 0.0)) throw InputError("the rotation axis is zero");
+  if (!(scale > 0.0)) throw InputError("the scale must be positive");
   HandleTransform transform;
-  transform.twist = true;
+  transform.kind = Kind::Pose;
   transform.axis = axis.normalized();
   transform.angle = angle;
   transform.scale = scale;
+  transform.pivot = pivot;
+  transform.shift = shift;
   transform.stretch = scale * Eigen::Matrix3d::Identity();
   transform.linear = scale * Eigen::AngleAxisd(angle, transform.axis).toRotationMatrix();
-  transform.translation = point - transform.linear * point;
-  transform.pivot = point;
+  transform.translation = pivot + shift - transform.linear * pivot;
   return transform;
 }
 
 HandleTransform HandleTransform::at_fraction(double fraction) const {
   if (fraction == 1.0) return *this;
-  if (twist) return twist_about(axis, pivot, fraction * angle, 1.0 + fraction * (scale - 1.0));
+  if (kind == Kind::Pose) return about_pivot(axis, pivot, fraction * angle, 1.0 + fraction * (scale - 1.0), fraction * shift);
   HandleTransform partial = *this;
   partial.angle = fraction * angle;
   partial.stretch = (1.0 - fraction) * Eigen::Matrix3d::Identity() + fraction * stretch;

@@ -143,7 +143,7 @@ Shape make_bar(int resolution) {
   Shape shape{builder.build(), {}, {}};
   shape.demo_constraints.fixed = vertices_where(shape.mesh, [](const Vector3d& p) { return p.z() <= 0.05 * kLength + 1e-12; });
   shape.demo_constraints.handles = {vertices_where(shape.mesh, [](const Vector3d& p) { return p.z() >= 0.95 * kLength - 1e-12; })};
-  shape.demo_transform = HandleTransform::twist_about(Vector3d::UnitZ(), Vector3d::Zero(), 135.0 * kPi / 180.0);
+  shape.demo_transform = HandleTransform::about_pivot(Vector3d::UnitZ(), Vector3d::Zero(), 135.0 * kPi / 180.0);
   return shape;
 }
 
