@@ -8,6 +8,7 @@
 #include "hdeform/deformer.h"
 #include "hdeform/errors.h"
 #include "hdeform/mesh_io.h"
+#include "session.h"
 #ifdef HDEFORM_WITH_ENGINE
 #include "render_support.h"
 #endif
@@ -20,6 +21,7 @@ class EditCommand final : public BatchCommand {
   CLI::App* add_to(CLI::App& app) override {
     auto* command = app.add_subcommand("edit", "Deform a mesh: fixed vertices stay, handles follow their transforms");
     source_.add_options(*command);
+    command->add_option("--session", session_path_, "Replay an editor session (JSON) instead of --mesh/--fixed/--handle/--transform");
     command->add_option("--fixed", fixed_path_, "Fixed vertices (sinks): 0-based indices");
     command->add_option("--handle", handle_paths_, "Handle vertices (sources): 0-based indices; repeat for several handles");
     command->add_option("--transform", transform_paths_,
@@ -38,13 +40,20 @@ class EditCommand final : public BatchCommand {
   }
 
   int run() override {
-    source_.require();
+    if (!session_path_.empty()) {
+      if (!source_.mesh_path.empty() || !source_.shape_name.empty() || !fixed_path_.empty() || !roi_path_.empty() || !handle_paths_.empty() ||
+          !transform_paths_.empty()) {
+        throw UsageError("--session replaces --mesh, --shape, --fixed, --roi, --handle and --transform");
+      }
+    } else {
+      source_.require();
+    }
     if (handle_paths_.size() != transform_paths_.size()) {
       throw UsageError("give one --transform per --handle (" + std::to_string(handle_paths_.size()) + " handles, " +
                        std::to_string(transform_paths_.size()) + " transforms)");
     }
     if (steps_ < 1) throw UsageError("--steps must be at least 1");
-    std::vector<std::string> inputs{source_.mesh_path, fixed_path_, roi_path_};
+    std::vector<std::string> inputs{source_.mesh_path, fixed_path_, roi_path_, session_path_};
     inputs.insert(inputs.end(), handle_paths_.begin(), handle_paths_.end());
     inputs.insert(inputs.end(), transform_paths_.begin(), transform_paths_.end());
     refuse_overwriting_inputs(out_path_, inputs);
@@ -53,12 +62,41 @@ class EditCommand final : public BatchCommand {
     const Progress progress(quiet_);
     DeformerOptions options{solver_.parsed_backend(), solver_.parsed_schedule()};
 
-    progress("reading " + source_.describe());
-    LoadedMesh loaded = load_mesh(source_);
-    const auto vertex_count = loaded.mesh.vertex_count();
+    LoadedMesh loaded;
     EditConstraints constraints;
     std::vector<HandleTransform> transforms;
-    if (!handle_paths_.empty()) {
+    std::string mesh_name = source_.describe();
+    if (!session_path_.empty()) {
+      progress("reading " + session_path_);
+      SessionSource session_source;
+      Session session = read_session(session_path_, &session_source);
+      mesh_name = session.mesh;
+      progress("reading " + session.mesh);
+      loaded.mesh = load_session_mesh(session);
+      check_session_against_mesh(session, loaded.mesh.vertex_count(), session_source);
+      if (!session.applied.empty()) {
+        progress("replaying " + std::to_string(session.applied.size()) + " applied stage(s)");
+        Session applied_only = session;
+        applied_only.current = {};
+        loaded.mesh.positions = replay_session(applied_only, loaded.mesh, options, progress);
+      }
+      constraints = session.current.constraints();
+      transforms = session.current.transforms();
+      if (transforms.empty()) {
+        // Nothing is being edited: the result is the rest shape after the applied stages.
+        write_obj(out_path_, loaded.mesh);
+        print_json_line({{"command", "edit"}, {"mesh", mesh_name}, {"session", session_path_}, {"vertices", loaded.mesh.vertex_count()},
+                         {"triangles", loaded.mesh.triangle_count()}, {"handles", 0}, {"output", out_path_}});
+        return 0;
+      }
+    } else {
+      progress("reading " + source_.describe());
+      loaded = load_mesh(source_);
+    }
+    const auto vertex_count = loaded.mesh.vertex_count();
+    if (!session_path_.empty()) {
+      // constraints and transforms came from the session
+    } else if (!handle_paths_.empty()) {
       for (std::size_t h = 0; h < handle_paths_.size(); ++h) {
         auto handle = read_vertex_indices(handle_paths_[h], vertex_count);
         if (handle.empty()) throw InputError(handle_paths_[h] + ": no vertex indices (a handle needs at least one vertex)");
@@ -74,6 +112,7 @@ class EditCommand final : public BatchCommand {
       throw UsageError("give at least one --handle FILE --transform FILE");
     }
     if (!roi_path_.empty()) constraints.region_of_interest = read_vertex_indices(roi_path_, vertex_count);
+    const std::string mesh_description = mesh_name;
 
     Deformer deformer(std::move(loaded.mesh), std::move(constraints), options, progress);
     auto warnings = deformer.warnings();
@@ -117,7 +156,7 @@ class EditCommand final : public BatchCommand {
     const auto& timings = deformer.timings();
     nlohmann::json report = {
         {"command", "edit"},
-        {"mesh", source_.describe()},
+        {"mesh", mesh_description},
         {"vertices", deformer.rest().vertex_count()},
         {"triangles", deformer.rest().triangle_count()},
         {"free", partition.count(VertexRole::Free)},
@@ -144,6 +183,7 @@ class EditCommand final : public BatchCommand {
  private:
   MeshSource source_;
   SolverChoice solver_;
+  std::string session_path_;
   std::string fixed_path_;
   std::string roi_path_;
   std::string out_path_;

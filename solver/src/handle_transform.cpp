@@ -2,6 +2,7 @@
 
 #include <Eigen/SVD>
 #include <cmath>
+#include <limits>
 #include <sstream>
 
 #include "hdeform/errors.h"
@@ -51,7 +52,10 @@ HandleTransform HandleTransform::about_pivot(const Eigen::Vector3d& axis, const 
   if (!(scale > 0.0)) throw InputError("the scale must be positive");
   HandleTransform transform;
   transform.kind = Kind::Pose;
-  transform.axis = axis.normalized();
+  // Normalising an already unit axis could change its last bit; leave it, so that a pose read
+  // back from a file is the pose that was written.
+  const bool unit = std::abs(axis.squaredNorm() - 1.0) <= 4.0 * std::numeric_limits<double>::epsilon();
+  transform.axis = unit ? axis : axis.normalized();
   transform.angle = angle;
   transform.scale = scale;
   transform.pivot = pivot;

@@ -1,0 +1,313 @@
+#include "session.h"
+
+#include <cstring>
+#include <fstream>
+#include <limits>
+#include <sstream>
+
+#include "cli_support.h"
+#include "hdeform/atomic_file.h"
+#include "hdeform/errors.h"
+#include "hdeform/mesh_io.h"
+#include "hdeform/shapes.h"
+#include "json_locate.h"
+
+namespace hdeform::cli {
+namespace {
+
+using nlohmann::json;
+
+constexpr const char* kFormat = "hdeform-session";
+constexpr int kVersion = 1;
+
+json vector_json(const Eigen::Vector3d& v) { return json::array({v.x(), v.y(), v.z()}); }
+
+json transform_json(const HandleTransform& transform) {
+  if (transform.kind == HandleTransform::Kind::Pose) {
+    return {{"pose",
+             {{"pivot", vector_json(transform.pivot)},
+              {"axis", vector_json(transform.axis)},
+              {"angle", transform.angle},
+              {"scale", transform.scale},
+              {"shift", vector_json(transform.shift)}}}};
+  }
+  json matrix = json::array();
+  const auto affine = transform.affine();
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 4; ++c) matrix.push_back(affine(r, c));
+  }
+  return {{"matrix", matrix}};
+}
+
+json stage_json(const EditStage& stage) {
+  json handles = json::array();
+  for (const auto& handle : stage.handles) handles.push_back({{"vertices", handle.vertices}, {"transform", transform_json(handle.transform)}});
+  return {{"region_of_interest", stage.region_of_interest}, {"fixed", stage.fixed}, {"handles", handles}};
+}
+
+// Reading with errors that name the line: every accessor takes the value's JSON pointer.
+class Reader {
+ public:
+  explicit Reader(const SessionSource& source) : source_(source) {}
+
+  [[noreturn]] void fail(const std::string& pointer, const std::string& problem) const {
+    throw InputError(source_.where(pointer) + ": " + (pointer.empty() ? "" : pointer + ": ") + problem);
+  }
+
+  const json& member(const json& object, const std::string& pointer, const char* key, bool required = true) const {
+    static const json kNull;
+    if (!object.is_object()) fail(pointer, "expected an object");
+    const auto it = object.find(key);
+    if (it == object.end()) {
+      if (required) fail(pointer, std::string("missing \"") + key + "\"");
+      return kNull;
+    }
+    return *it;
+  }
+
+  double number(const json& value, const std::string& pointer) const {
+    if (!value.is_number()) fail(pointer, "expected a number");
+    const double number = value.get<double>();
+    if (!std::isfinite(number)) fail(pointer, "non-finite number");
+    return number;
+  }
+
+  Eigen::Vector3d vector3(const json& value, const std::string& pointer) const {
+    if (!value.is_array() || value.size() != 3) fail(pointer, "expected 3 numbers");
+    return {number(value[0], pointer + "/0"), number(value[1], pointer + "/1"), number(value[2], pointer + "/2")};
+  }
+
+  std::vector<int> indices(const json& value, const std::string& pointer) const {
+    if (value.is_null()) return {};
+    if (!value.is_array()) fail(pointer, "expected a list of vertex indices");
+    std::vector<int> out;
+    out.reserve(value.size());
+    for (std::size_t k = 0; k < value.size(); ++k) {
+      const auto& item = value[k];
+      const std::string at = pointer + "/" + std::to_string(k);
+      if (!item.is_number_integer()) fail(at, "expected a vertex index (an integer)");
+      const auto index = item.get<long long>();
+      if (index < 0 || index > std::numeric_limits<int>::max()) fail(at, "vertex index " + std::to_string(index) + " out of range");
+      out.push_back(static_cast<int>(index));
+    }
+    return out;
+  }
+
+  HandleTransform transform(const json& value, const std::string& pointer) const {
+    try {
+      if (value.is_object() && value.contains("pose")) {
+        const auto& pose = value["pose"];
+        const std::string at = pointer + "/pose";
+        return HandleTransform::about_pivot(vector3(member(pose, at, "axis"), at + "/axis"), vector3(member(pose, at, "pivot"), at + "/pivot"),
+                                            number(member(pose, at, "angle"), at + "/angle"), number(member(pose, at, "scale"), at + "/scale"),
+                                            vector3(member(pose, at, "shift"), at + "/shift"));
+      }
+      if (value.is_object() && value.contains("matrix")) {
+        const auto& matrix = value["matrix"];
+        const std::string at = pointer + "/matrix";
+        if (!matrix.is_array() || matrix.size() != 12) fail(at, "expected 12 numbers (the 3×4 matrix [A | t], row-major)");
+        Eigen::Matrix<double, 3, 4> affine;
+        for (int k = 0; k < 12; ++k) affine(k / 4, k % 4) = number(matrix[static_cast<std::size_t>(k)], at + "/" + std::to_string(k));
+        return HandleTransform::from_affine(affine);
+      }
+    } catch (const InputError& error) {
+      if (std::string(error.what()).find(source_.path.string()) == 0) throw;
+      fail(pointer, error.what());
+    }
+    fail(pointer, "expected {\"pose\": {...}} or {\"matrix\": [12 numbers]}");
+  }
+
+  EditStage stage(const json& value, const std::string& pointer) const {
+    EditStage stage;
+    stage.region_of_interest = indices(member(value, pointer, "region_of_interest", false), pointer + "/region_of_interest");
+    stage.fixed = indices(member(value, pointer, "fixed", false), pointer + "/fixed");
+    const auto& handles = member(value, pointer, "handles", false);
+    if (!handles.is_null() && !handles.is_array()) fail(pointer + "/handles", "expected a list of handles");
+    for (std::size_t h = 0; !handles.is_null() && h < handles.size(); ++h) {
+      const std::string at = pointer + "/handles/" + std::to_string(h);
+      SessionHandle handle;
+      handle.vertices = indices(member(handles[h], at, "vertices"), at + "/vertices");
+      if (handle.vertices.empty()) fail(at + "/vertices", "a handle needs at least one vertex");
+      handle.transform = transform(member(handles[h], at, "transform"), at + "/transform");
+      stage.handles.push_back(std::move(handle));
+    }
+    return stage;
+  }
+
+ private:
+  const SessionSource& source_;
+};
+
+}  // namespace
+
+EditConstraints EditStage::constraints() const {
+  EditConstraints constraints;
+  constraints.region_of_interest = region_of_interest;
+  constraints.fixed = fixed;
+  for (const auto& handle : handles) constraints.handles.push_back(handle.vertices);
+  return constraints;
+}
+
+std::vector<HandleTransform> EditStage::transforms() const {
+  std::vector<HandleTransform> out;
+  for (const auto& handle : handles) out.push_back(handle.transform);
+  return out;
+}
+
+bool EditStage::operator==(const EditStage& other) const {
+  if (region_of_interest != other.region_of_interest || fixed != other.fixed || handles.size() != other.handles.size()) return false;
+  for (std::size_t h = 0; h < handles.size(); ++h) {
+    if (handles[h].vertices != other.handles[h].vertices) return false;
+    if (transform_json(handles[h].transform) != transform_json(other.handles[h].transform)) return false;
+  }
+  return true;
+}
+
+bool Session::operator==(const Session& other) const {
+  return mesh == other.mesh && applied == other.applied && current == other.current && active_handle == other.active_handle;
+}
+
+json to_json(const Session& session) {
+  json applied = json::array();
+  for (const auto& stage : session.applied) applied.push_back(stage_json(stage));
+  return {{"format", kFormat},
+          {"version", kVersion},
+          {"mesh", session.mesh},
+          {"applied", applied},
+          {"current", stage_json(session.current)},
+          {"active_handle", session.active_handle}};
+}
+
+std::string SessionSource::where(const std::string& pointer) const {
+  const std::size_t line = json_line_of(text, pointer);
+  return line > 0 ? path.string() + ":" + std::to_string(line) : path.string();
+}
+
+Session session_from_json(const json& value, const SessionSource& source) {
+  const Reader reader(source);
+  if (!value.is_object()) reader.fail("", "a session is a JSON object");
+  const auto& format = reader.member(value, "", "format");
+  if (format != kFormat) reader.fail("/format", "not an hdeform session (format is not \"hdeform-session\")");
+  const auto& version = reader.member(value, "", "version");
+  if (!version.is_number_integer() || version.get<int>() != kVersion) reader.fail("/version", "unsupported session version (this build reads 1)");
+  Session session;
+  const auto& mesh = reader.member(value, "", "mesh");
+  if (!mesh.is_string() || mesh.get<std::string>().empty()) reader.fail("/mesh", "expected the mesh's path or shape:NAME");
+  session.mesh = mesh.get<std::string>();
+  const auto& applied = reader.member(value, "", "applied", false);
+  if (!applied.is_null() && !applied.is_array()) reader.fail("/applied", "expected a list of stages");
+  for (std::size_t k = 0; !applied.is_null() && k < applied.size(); ++k) {
+    auto stage = reader.stage(applied[k], "/applied/" + std::to_string(k));
+    if (stage.handles.empty()) reader.fail("/applied/" + std::to_string(k), "an applied stage needs a handle");
+    session.applied.push_back(std::move(stage));
+  }
+  session.current = reader.stage(reader.member(value, "", "current"), "/current");
+  const auto& active = reader.member(value, "", "active_handle", false);
+  if (!active.is_null()) {
+    if (!active.is_number_integer()) reader.fail("/active_handle", "expected an integer");
+    session.active_handle = active.get<int>();
+  }
+  if (session.active_handle < 0 || (session.active_handle > 0 && session.active_handle >= static_cast<int>(session.current.handles.size()))) {
+    reader.fail("/active_handle", "no handle " + std::to_string(session.active_handle));
+  }
+  return session;
+}
+
+Session read_session(const std::filesystem::path& path, SessionSource* source_out) {
+  SessionSource source{path, {}};
+  {
+    std::ifstream in(path, std::ios::binary);
+    if (!in) throw InputError(path.string() + ": cannot open file (" + std::strerror(errno) + ")");
+    std::ostringstream text;
+    text << in.rdbuf();
+    source.text = std::move(text).str();
+  }
+  if (source.text.find('\0') != std::string::npos) throw InputError(path.string() + ": binary data, not a JSON session");
+  json value;
+  try {
+    value = json::parse(source.text);
+  } catch (const json::parse_error& error) {
+    const std::string what = error.what();
+    const auto colon = what.rfind(": ");
+    throw InputError(path.string() + ":" + std::to_string(line_of_offset(source.text, error.byte > 0 ? error.byte - 1 : 0)) +
+                     ": not valid JSON (" + (colon == std::string::npos ? what : what.substr(colon + 2)) + ")");
+  }
+  Session session = session_from_json(value, source);
+  if (!session.mesh.starts_with("shape:")) {
+    const std::filesystem::path mesh(session.mesh);
+    if (mesh.is_relative()) session.mesh = (path.parent_path() / mesh).lexically_normal().string();
+  }
+  if (source_out != nullptr) *source_out = std::move(source);
+  return session;
+}
+
+void write_session(const std::filesystem::path& path, const Session& session) {
+  const std::string text = to_json(session).dump(1) + "\n";
+  write_file_atomically(path, [&](std::ostream& out) { out << text; });
+}
+
+void check_session_against_mesh(const Session& session, Eigen::Index vertex_count, const SessionSource& source) {
+  auto check_stage = [&](const EditStage& stage, const std::string& pointer) {
+    std::vector<std::string> owner(static_cast<std::size_t>(vertex_count));
+    auto check_list = [&](const std::vector<int>& list, const std::string& at, const std::string& name, bool exclusive) {
+      std::vector<bool> seen(static_cast<std::size_t>(vertex_count), false);
+      for (std::size_t k = 0; k < list.size(); ++k) {
+        const std::string item = at + "/" + std::to_string(k);
+        const int v = list[k];
+        if (v >= vertex_count) {
+          throw InputError(source.where(item) + ": " + item + ": vertex " + std::to_string(v) + " out of range (the mesh has " +
+                           std::to_string(vertex_count) + " vertices)");
+        }
+        if (seen[static_cast<std::size_t>(v)]) throw InputError(source.where(item) + ": " + item + ": vertex " + std::to_string(v) + " listed twice");
+        seen[static_cast<std::size_t>(v)] = true;
+        if (!exclusive) continue;
+        auto& taken = owner[static_cast<std::size_t>(v)];
+        if (!taken.empty()) {
+          throw InputError(source.where(item) + ": " + item + ": vertex " + std::to_string(v) + " is both " + taken + " and " + name);
+        }
+        taken = name;
+      }
+    };
+    check_list(stage.region_of_interest, pointer + "/region_of_interest", "in the region of interest", false);
+    check_list(stage.fixed, pointer + "/fixed", "fixed", true);
+    for (std::size_t h = 0; h < stage.handles.size(); ++h) {
+      check_list(stage.handles[h].vertices, pointer + "/handles/" + std::to_string(h) + "/vertices", "in handle " + std::to_string(h + 1), true);
+    }
+  };
+  for (std::size_t k = 0; k < session.applied.size(); ++k) check_stage(session.applied[k], "/applied/" + std::to_string(k));
+  check_stage(session.current, "/current");
+}
+
+Mesh load_session_mesh(const Session& session) {
+  if (session.mesh.starts_with("shape:")) {
+    MeshSource source;
+    const std::string spec = session.mesh.substr(6);
+    const auto colon = spec.find(':');
+    source.shape_name = spec.substr(0, colon);
+    if (colon != std::string::npos) {
+      try {
+        source.resolution = std::stoi(spec.substr(colon + 1));
+      } catch (const std::exception&) {
+        throw InputError("session mesh '" + session.mesh + "': the resolution is not a number");
+      }
+    }
+    if (!parse_shape(source.shape_name)) throw InputError("session mesh '" + session.mesh + "': unknown shape");
+    return load_mesh(source).mesh;
+  }
+  return read_obj(session.mesh);
+}
+
+Eigen::MatrixXd replay_session(const Session& session, const Mesh& base, const DeformerOptions& options, const ProgressCallback& progress) {
+  Mesh rest = base;
+  auto run_stage = [&](const EditStage& stage) {
+    Deformer deformer(rest, stage.constraints(), options, progress);
+    Eigen::MatrixXd positions;
+    deformer.deform(stage.transforms(), positions);
+    return positions;
+  };
+  for (const auto& stage : session.applied) rest.positions = run_stage(stage);
+  if (session.current.handles.empty()) return rest.positions;
+  return run_stage(session.current);
+}
+
+}  // namespace hdeform::cli

@@ -1,0 +1,75 @@
+#pragma once
+// The whole editing state, as the editor keeps it and as JSON on disk: the mesh, the stages
+// already applied (made the new rest shape), and the current stage — region of interest, fixed
+// vertices, handles with their transforms. `hdeform edit --session` replays it in batch and gets
+// the editor's mesh exactly: the same Deformer with the same inputs gives the same bits.
+#include <Eigen/Core>
+#include <filesystem>
+#include <functional>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "hdeform/constraints.h"
+#include "hdeform/deformer.h"
+#include "hdeform/handle_transform.h"
+#include "hdeform/mesh.h"
+
+namespace hdeform::cli {
+
+struct SessionHandle {
+  std::vector<int> vertices;
+  HandleTransform transform;
+};
+
+struct EditStage {
+  std::vector<int> region_of_interest;  // empty: the whole mesh
+  std::vector<int> fixed;
+  std::vector<SessionHandle> handles;
+
+  EditConstraints constraints() const;
+  std::vector<HandleTransform> transforms() const;
+  bool operator==(const EditStage& other) const;
+};
+
+struct Session {
+  // An OBJ path (relative paths are relative to the session file's folder when read), or
+  // "shape:NAME" / "shape:NAME:RESOLUTION" for a built-in shape.
+  std::string mesh;
+  std::vector<EditStage> applied;
+  EditStage current;
+  int active_handle = 0;
+
+  bool operator==(const Session& other) const;
+};
+
+nlohmann::json to_json(const Session& session);
+
+// Where a session came from, to name the line of a problem found after parsing.
+struct SessionSource {
+  std::filesystem::path path;
+  std::string text;
+  // "<file>:<line>" for a JSON pointer ("<file>" when not found).
+  std::string where(const std::string& pointer) const;
+};
+
+// Parses and checks the structure (types, finite numbers, valid transforms). Throws InputError
+// "<file>:<line>: <problem>". The mesh path is resolved against the session file's folder.
+Session read_session(const std::filesystem::path& path, SessionSource* source = nullptr);
+Session session_from_json(const nlohmann::json& json, const SessionSource& source);
+// Written atomically.
+void write_session(const std::filesystem::path& path, const Session& session);
+
+// Checks every vertex index against the mesh, repeated vertices in one list, and vertices that
+// are both fixed and in a handle or in two handles; errors name the line.
+void check_session_against_mesh(const Session& session, Eigen::Index vertex_count, const SessionSource& source);
+
+// The session's base mesh (an OBJ, or a built-in shape).
+Mesh load_session_mesh(const Session& session);
+
+// The rest shape after the applied stages, then the current stage's result (the rest shape
+// itself when the current stage has no handle). `progress` as for Deformer.
+Eigen::MatrixXd replay_session(const Session& session, const Mesh& base, const DeformerOptions& options,
+                               const ProgressCallback& progress = {});
+
+}  // namespace hdeform::cli

@@ -1,0 +1,110 @@
+#include <fstream>
+#include <numbers>
+
+#include "hdeform/deformer.h"
+#include "hdeform/errors.h"
+#include "hdeform/shapes.h"
+#include "session.h"
+#include "test_support.h"
+
+namespace hdeform {
+namespace {
+
+using cli::Session;
+
+Session demo_session(int resolution = 24) {
+  const auto shape = make_shape(ShapeKind::Cactus, resolution);
+  Session session;
+  session.mesh = "shape:cactus:" + std::to_string(resolution);
+  session.current.fixed = shape.demo_constraints.fixed;
+  Eigen::Vector3d pivot = Eigen::Vector3d::Zero();
+  for (const int v : shape.demo_constraints.handles[0]) pivot += shape.mesh.positions.row(v).transpose();
+  pivot /= static_cast<double>(shape.demo_constraints.handles[0].size());
+  session.current.handles.push_back(
+      {shape.demo_constraints.handles[0], HandleTransform::about_pivot(Eigen::Vector3d(1, 0.2, 0), pivot, 1.3, 1.1, Eigen::Vector3d(0.0, -0.05, 0.02))});
+  return session;
+}
+
+TEST(Session, RoundTripsExactly) {
+  const test::TempDir dir;
+  Session session = demo_session();
+  Eigen::Matrix<double, 3, 4> affine;
+  affine << Eigen::AngleAxisd(0.4, Eigen::Vector3d::UnitX()).toRotationMatrix() * 1.2, Eigen::Vector3d(0.1, 0.2, 0.3);
+  session.current.handles.push_back({{1, 2, 3}, HandleTransform::from_affine(affine)});
+  session.current.region_of_interest = {0, 1, 2, 3, 4, 5};
+  session.applied.push_back(session.current);
+  session.active_handle = 1;
+  cli::write_session(dir.file("s.json"), session);
+  Session back = cli::read_session(dir.file("s.json"));
+  EXPECT_EQ(back, session);
+  back.current.handles[0].transform.angle += 1e-15;
+  back.current.handles[0].transform = HandleTransform::about_pivot(back.current.handles[0].transform.axis, back.current.handles[0].transform.pivot,
+                                                                  back.current.handles[0].transform.angle, 1.1, back.current.handles[0].transform.shift);
+  EXPECT_FALSE(back == session);  // the comparison can tell
+}
+
+TEST(Session, ReplayEqualsTheDeformerBitForBit) {
+  const Session session = demo_session();
+  const Mesh base = cli::load_session_mesh(session);
+  Deformer deformer(base, session.current.constraints());
+  Eigen::MatrixXd expected;
+  deformer.deform(session.current.transforms(), expected);
+  EXPECT_EQ(cli::replay_session(session, base, {}), expected);
+  EXPECT_GT((expected - base.positions).cwiseAbs().maxCoeff(), 0.01);
+}
+
+TEST(Session, AppliedStagesBecomeTheRestShapeInOrder) {
+  Session session = demo_session();
+  const Mesh base = cli::load_session_mesh(session);
+  session.applied.push_back(session.current);
+  Mesh rest = base;
+  {
+    Deformer first(rest, session.current.constraints());
+    first.deform(session.current.transforms(), rest.positions);
+  }
+  Deformer second(rest, session.current.constraints());
+  Eigen::MatrixXd expected;
+  second.deform(session.current.transforms(), expected);
+  EXPECT_EQ(cli::replay_session(session, base, {}), expected);
+  session.current.handles.clear();
+  EXPECT_EQ(cli::replay_session(session, base, {}), rest.positions);  // nothing current: the applied rest
+}
+
+// Expects read_session (and the mesh check) to fail with `file:line` and the fragment.
+void expect_session_error(const test::TempDir& dir, const std::string& text, std::size_t line, const std::string& fragment) {
+  dir.write("bad.json", text);
+  try {
+    cli::SessionSource source;
+    const Session session = cli::read_session(dir.file("bad.json"), &source);
+    cli::check_session_against_mesh(session, 100, source);
+    ADD_FAILURE() << "no error for:\n" << text;
+  } catch (const InputError& error) {
+    const std::string message = error.what();
+    EXPECT_NE(message.find("bad.json:" + std::to_string(line) + ":"), std::string::npos) << message;
+    EXPECT_NE(message.find(fragment), std::string::npos) << message;
+  }
+}
+
+TEST(Session, MalformedSessionsNameTheLineAndTheProblem) {
+  const test::TempDir dir;
+  const std::string head = "{\n \"format\": \"hdeform-session\",\n \"version\": 1,\n \"mesh\": \"shape:cactus\",\n";
+  expect_session_error(dir, "{\n \"format\": \"hdeform-session\",\n \"version\": 1,\n \"mesh\": \"x\"\n \"current\": {}\n}\n", 5, "not valid JSON");
+  expect_session_error(dir, "{\n \"format\": \"something-else\"\n}\n", 2, "not an hdeform session");
+  expect_session_error(dir, head + " \"current\": {\n  \"fixed\": [1, 2, \"three\"]\n }\n}\n", 6, "expected a vertex index");
+  expect_session_error(dir, head + " \"current\": {\n  \"fixed\": [1, 2,\n   -3]\n }\n}\n", 7, "out of range");
+  expect_session_error(dir, head + " \"current\": {\n  \"fixed\": [1, 2,\n   300]\n }\n}\n", 7, "vertex 300 out of range (the mesh has 100 vertices)");
+  expect_session_error(dir,
+                       head + " \"current\": {\n  \"fixed\": [5],\n  \"handles\": [\n   {\"vertices\": [6,\n 5],\n    \"transform\": {\"matrix\": [1,0,0,0, 0,1,0,0, 0,0,1,0]}}\n  ]\n }\n}\n",
+                       9, "is both fixed and in handle 1");
+  expect_session_error(dir,
+                       head + " \"current\": {\n  \"handles\": [\n   {\"vertices\": [6],\n    \"transform\": {\"matrix\": [1,0,0,0, 0,1,0,0, 0,0,0,0]}}\n  ]\n }\n}\n",
+                       8, "singular");
+  expect_session_error(dir,
+                       head + " \"current\": {\n  \"handles\": [\n   {\"vertices\": [6],\n    \"transform\": {\"pose\": {\"pivot\": [0,0,0], \"axis\": [0,0,0], \"angle\": 1, \"scale\": 1, \"shift\": [0,0,0]}}}\n  ]\n }\n}\n",
+                       8, "axis is zero");
+  expect_session_error(dir, head + " \"current\": {\n  \"handles\": [\n   {\"vertices\": []}\n  ]\n }\n}\n", 7, "at least one vertex");
+  expect_session_error(dir, head + " \"applied\": 3,\n \"current\": {}\n}\n", 5, "expected a list of stages");
+}
+
+}  // namespace
+}  // namespace hdeform
