@@ -26,9 +26,11 @@ void main() {
     class_color = vec4(0.0);
   } else if (vertex_class == HD_CLASS_FIXED) {
     class_color = vec4(frame.class_colors[0].rgb, 1.0);
+  } else if (vertex_class == HD_CLASS_OUTSIDE) {
+    class_color = vec4(frame.class_colors[1].rgb, 1.0);
   } else {
     uint handle = (vertex_class - HD_CLASS_HANDLE_FIRST) % uint(HD_HANDLE_COLORS);
-    class_color = vec4(frame.class_colors[1 + handle].rgb, 1.0);
+    class_color = vec4(frame.class_colors[HD_FIRST_HANDLE_COLOR + handle].rgb, 1.0);
   }
 #ifdef HD_VARIANT_FLAT
   world_position = position;

@@ -5,11 +5,13 @@
 // Vertex classes as stored in the per-vertex class attribute.
 #define HD_CLASS_FREE 0u
 #define HD_CLASS_FIXED 1u
-#define HD_CLASS_HANDLE_FIRST 2u  // handle k is HD_CLASS_HANDLE_FIRST + k
+#define HD_CLASS_OUTSIDE 2u       // outside the region of interest (held in place, shown dimmed)
+#define HD_CLASS_HANDLE_FIRST 3u  // handle k is HD_CLASS_HANDLE_FIRST + k
 
-// Colours per class: fixed, then one per handle (cycled beyond this many).
+// Colours per class: fixed, outside, then one per handle (cycled beyond this many).
 #define HD_HANDLE_COLORS 8
-#define HD_CLASS_COLORS (1 + HD_HANDLE_COLORS)
+#define HD_FIRST_HANDLE_COLOR 2
+#define HD_CLASS_COLORS (2 + HD_HANDLE_COLORS)
 
 // Samples of the scalar-field colormap, spread evenly over [0, 1], linearly interpolated.
 #define HD_COLORMAP_SAMPLES 33

@@ -30,9 +30,11 @@ Eigen::Vector3f colormap(float t) {
 }
 
 const std::array<Eigen::Vector3f, HD_CLASS_COLORS>& class_colors() {
-  // Fixed: blue (the paper's sinks); handles: red first (the paper's source), then distinct hues.
+  // Fixed: blue (the paper's sinks); outside the region of interest: grey; handles: red first
+  // (the paper's source), then distinct hues.
   static const std::array<Eigen::Vector3f, HD_CLASS_COLORS> colors{{
       {0.15f, 0.35f, 0.95f},  // fixed
+      {0.45f, 0.46f, 0.50f},  // outside the region of interest
       {0.92f, 0.16f, 0.12f},  // handle 1
       {0.98f, 0.62f, 0.05f},  // handle 2
       {0.10f, 0.75f, 0.35f},  // handle 3

@@ -35,6 +35,7 @@ struct RenderSettings {
 
 // Vertex classes as the shaders read them.
 inline uint32_t fixed_class() { return HD_CLASS_FIXED; }
+inline uint32_t outside_class() { return HD_CLASS_OUTSIDE; }
 inline uint32_t handle_class(std::size_t handle) { return HD_CLASS_HANDLE_FIRST + static_cast<uint32_t>(handle); }
 
 struct Marker {

@@ -14,7 +14,7 @@ const std::array<Eigen::Vector3f, HD_COLORMAP_SAMPLES>& colormap_samples();
 // The colormap at t ∈ [0, 1] (clamped), interpolated like the shader does.
 Eigen::Vector3f colormap(float t);
 
-// Fixed vertices, then handle 0, 1, ...
+// Fixed vertices, vertices outside the region of interest, then handle 0, 1, ...
 const std::array<Eigen::Vector3f, HD_CLASS_COLORS>& class_colors();
 
 }  // namespace hdeform::engine

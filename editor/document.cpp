@@ -1,0 +1,392 @@
+#include "document.h"
+
+#include <algorithm>
+
+#include "hdeform/errors.h"
+
+namespace hdeform::cli {
+namespace {
+
+constexpr std::size_t kHistoryLimit = 200;
+
+bool same_constraints(const EditConstraints& a, const EditConstraints& b) {
+  return a.fixed == b.fixed && a.handles == b.handles && a.region_of_interest == b.region_of_interest;
+}
+
+}  // namespace
+
+struct Document::Build {
+  std::thread thread;
+  std::atomic<bool> done{false};
+  std::unique_ptr<Deformer> deformer;
+  std::exception_ptr error;
+  EditConstraints constraints;
+  std::shared_ptr<const Mesh> rest;
+  std::mutex mutex;
+  std::string stage;
+};
+
+Document::Document(Session session, Mesh base, DeformerOptions options, Publish publish)
+    : mesh_name_(session.mesh), base_(std::move(base)), applied_(session.applied), adjacency_(base_.triangles, base_.vertex_count()),
+      options_(options), publish_(std::move(publish)) {
+  check_session_against_mesh(session, base_.vertex_count(), SessionSource{"session", {}});
+  auto rest = std::make_shared<Mesh>(base_);
+  for (const auto& stage : applied_) {
+    Deformer deformer(*rest, stage.constraints(), options_);
+    Eigen::MatrixXd positions;
+    deformer.deform(stage.transforms(), positions);
+    rest->positions = std::move(positions);
+  }
+  rest_ = std::move(rest);
+  load_stage(session.current);
+  active_handle_ = handles_.empty() ? 0 : std::clamp(session.active_handle, 0, static_cast<int>(handles_.size()) - 1);
+  history_.push_back({this->session(), rest_});
+}
+
+Document::~Document() {
+  stop_pipeline();
+  if (build_ && build_->thread.joinable()) build_->thread.join();
+}
+
+EditStage Document::current_stage() const {
+  EditStage stage;
+  std::vector<std::vector<int>> handle_vertices(handles_.size());
+  for (std::size_t v = 0; v < labels_.size(); ++v) {
+    if (roi_[v]) stage.region_of_interest.push_back(static_cast<int>(v));
+    if (labels_[v] == kFixed) stage.fixed.push_back(static_cast<int>(v));
+    if (labels_[v] >= 0) handle_vertices[static_cast<std::size_t>(labels_[v])].push_back(static_cast<int>(v));
+  }
+  for (std::size_t h = 0; h < handles_.size(); ++h) {
+    if (!handle_vertices[h].empty()) stage.handles.push_back({std::move(handle_vertices[h]), handles_[h].transform});
+  }
+  return stage;
+}
+
+Session Document::session() const {
+  Session session;
+  session.mesh = mesh_name_;
+  session.applied = applied_;
+  session.current = current_stage();
+  // The active handle among the non-empty ones.
+  int active = 0;
+  for (int h = 0; h < active_handle_ && h < static_cast<int>(handle_sizes_.size()); ++h) active += handle_sizes_[static_cast<std::size_t>(h)] > 0 ? 1 : 0;
+  session.active_handle = session.current.handles.empty() ? 0 : std::min(active, static_cast<int>(session.current.handles.size()) - 1);
+  return session;
+}
+
+void Document::load_stage(const EditStage& stage) {
+  const auto n = static_cast<std::size_t>(rest_->vertex_count());
+  labels_.assign(n, kFree);
+  roi_.assign(n, false);
+  roi_count_ = stage.region_of_interest.size();
+  for (const int v : stage.region_of_interest) roi_[static_cast<std::size_t>(v)] = true;
+  for (const int v : stage.fixed) labels_[static_cast<std::size_t>(v)] = kFixed;
+  handles_.clear();
+  handle_sizes_.clear();
+  for (std::size_t h = 0; h < stage.handles.size(); ++h) {
+    for (const int v : stage.handles[h].vertices) labels_[static_cast<std::size_t>(v)] = static_cast<int>(h);
+    handles_.push_back({stage.handles[h].transform});
+    handle_sizes_.push_back(stage.handles[h].vertices.size());
+  }
+  active_handle_ = std::min(active_handle_, std::max(0, static_cast<int>(handles_.size()) - 1));
+}
+
+void Document::relabel(int vertex, int label) {
+  int& current = labels_[static_cast<std::size_t>(vertex)];
+  if (current == label) return;
+  if (current >= 0) --handle_sizes_[static_cast<std::size_t>(current)];
+  if (label >= 0) ++handle_sizes_[static_cast<std::size_t>(label)];
+  current = label;
+}
+
+void Document::refresh_pivot(int handle) {
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  std::size_t count = 0;
+  for (std::size_t v = 0; v < labels_.size(); ++v) {
+    if (labels_[v] != handle) continue;
+    centroid += rest_->positions.row(static_cast<Eigen::Index>(v)).transpose();
+    ++count;
+  }
+  if (count == 0) return;
+  auto& transform = handles_[static_cast<std::size_t>(handle)].transform;
+  transform = HandleTransform::about_pivot(transform.axis, centroid / static_cast<double>(count), transform.angle, transform.scale, transform.shift);
+}
+
+void Document::paint(std::span<const int> vertices, Layer layer, bool erase) {
+  if (layer == Layer::RegionOfInterest) {
+    for (const int v : vertices) {
+      const auto vertex = static_cast<std::size_t>(v);
+      if (roi_[vertex] == !erase) continue;
+      roi_[vertex] = !erase;
+      if (erase) --roi_count_;
+      else ++roi_count_;
+    }
+    return;
+  }
+  if (layer == Layer::Handle && handles_.empty()) add_handle();
+  const int label = layer == Layer::Fixed ? kFixed : active_handle_;
+  std::vector<bool> touched(handles_.size(), false);
+  for (const int v : vertices) {
+    const int current = labels_[static_cast<std::size_t>(v)];
+    if (erase) {
+      if (current != label) continue;
+      relabel(v, kFree);
+    } else {
+      relabel(v, label);
+    }
+    if (current >= 0) touched[static_cast<std::size_t>(current)] = true;
+  }
+  if (label >= 0) touched[static_cast<std::size_t>(label)] = true;
+  for (std::size_t h = 0; h < handles_.size(); ++h) {
+    if (touched[h]) refresh_pivot(static_cast<int>(h));
+  }
+}
+
+std::vector<bool> Document::members(Layer layer) const {
+  std::vector<bool> result(labels_.size());
+  for (std::size_t v = 0; v < labels_.size(); ++v) {
+    switch (layer) {
+      case Layer::RegionOfInterest: result[v] = roi_[v]; break;
+      case Layer::Fixed: result[v] = labels_[v] == kFixed; break;
+      case Layer::Handle: result[v] = labels_[v] == active_handle_; break;
+    }
+  }
+  return result;
+}
+
+void Document::set_members(Layer layer, const std::vector<bool>& wanted) {
+  std::vector<int> added, removed;
+  const auto now = members(layer);
+  for (std::size_t v = 0; v < wanted.size(); ++v) {
+    if (wanted[v] && !now[v]) added.push_back(static_cast<int>(v));
+    if (!wanted[v] && now[v]) removed.push_back(static_cast<int>(v));
+  }
+  paint(removed, layer, true);
+  paint(added, layer, false);
+}
+
+void Document::invert(Layer layer) {
+  auto wanted = members(layer);
+  for (std::size_t v = 0; v < wanted.size(); ++v) {
+    // Fixed and handle take only vertices that no other class holds.
+    const bool free_for_layer = layer == Layer::RegionOfInterest || labels_[v] == kFree || wanted[v];
+    wanted[v] = !wanted[v] && free_for_layer;
+  }
+  set_members(layer, wanted);
+}
+
+void Document::grow(Layer layer) {
+  auto wanted = grown(members(layer), adjacency_);
+  if (layer != Layer::RegionOfInterest) {
+    const auto now = members(layer);
+    for (std::size_t v = 0; v < wanted.size(); ++v) wanted[v] = wanted[v] && (now[v] || labels_[v] == kFree);
+  }
+  set_members(layer, wanted);
+}
+
+void Document::shrink(Layer layer) { set_members(layer, shrunk(members(layer), adjacency_)); }
+
+void Document::clear(Layer layer) { set_members(layer, std::vector<bool>(labels_.size(), false)); }
+
+void Document::set_active_handle(int handle) {
+  if (handle >= 0 && handle < static_cast<int>(handles_.size())) active_handle_ = handle;
+}
+
+int Document::add_handle() {
+  handles_.push_back({HandleTransform::about_pivot(Eigen::Vector3d::UnitZ(), Eigen::Vector3d::Zero(), 0.0)});
+  handle_sizes_.push_back(0);
+  active_handle_ = static_cast<int>(handles_.size()) - 1;
+  return active_handle_;
+}
+
+void Document::remove_handle(int handle) {
+  if (handle < 0 || handle >= static_cast<int>(handles_.size())) return;
+  for (auto& label : labels_) {
+    if (label == handle) label = kFree;
+    else if (label > handle) --label;
+  }
+  handles_.erase(handles_.begin() + handle);
+  handle_sizes_.erase(handle_sizes_.begin() + handle);
+  active_handle_ = std::min(active_handle_, std::max(0, static_cast<int>(handles_.size()) - 1));
+}
+
+std::size_t Document::handle_size(int handle) const { return handle_sizes_[static_cast<std::size_t>(handle)]; }
+
+void Document::set_pose(int handle, const Eigen::Vector3d& axis, double angle, double scale, const Eigen::Vector3d& shift) {
+  auto& transform = handles_[static_cast<std::size_t>(handle)].transform;
+  transform = HandleTransform::about_pivot(axis, transform.pivot, angle, scale, shift);
+}
+
+void Document::reset_poses() {
+  for (auto& handle : handles_) {
+    handle.transform = HandleTransform::about_pivot(handle.transform.axis, handle.transform.pivot, 0.0, 1.0, Eigen::Vector3d::Zero());
+  }
+}
+
+void Document::apply() {
+  const EditStage stage = current_stage();
+  if (stage.handles.empty()) return;
+  auto rest = std::make_shared<Mesh>(*rest_);
+  rest->positions = result();
+  applied_.push_back(stage);
+  rest_ = std::move(rest);
+  reset_poses();
+  for (std::size_t h = 0; h < handles_.size(); ++h) refresh_pivot(static_cast<int>(h));
+}
+
+void Document::commit() {
+  Snapshot snapshot{session(), rest_};
+  const Snapshot& last = history_[history_index_];
+  if (snapshot.session == last.session && snapshot.rest == last.rest) return;
+  history_.resize(history_index_ + 1);
+  history_.push_back(std::move(snapshot));
+  if (history_.size() > kHistoryLimit) {
+    history_.erase(history_.begin());
+    saved_index_ = saved_index_ == 0 ? history_.size() : saved_index_ - 1;
+  }
+  history_index_ = history_.size() - 1;
+}
+
+bool Document::undo() {
+  if (!can_undo()) return false;
+  const Snapshot& snapshot = history_[--history_index_];
+  applied_ = snapshot.session.applied;
+  rest_ = snapshot.rest;
+  active_handle_ = snapshot.session.active_handle;
+  load_stage(snapshot.session.current);
+  return true;
+}
+
+bool Document::redo() {
+  if (!can_redo()) return false;
+  const Snapshot& snapshot = history_[++history_index_];
+  applied_ = snapshot.session.applied;
+  rest_ = snapshot.rest;
+  active_handle_ = snapshot.session.active_handle;
+  load_stage(snapshot.session.current);
+  return true;
+}
+
+bool Document::modified() const { return history_index_ != saved_index_; }
+void Document::mark_saved() { saved_index_ = history_index_; }
+
+Document::SolverState Document::solver_state() const {
+  if (build_) return SolverState::Building;
+  if (!failure_.empty()) return SolverState::Failed;
+  if (deformer_) return SolverState::Ready;
+  return SolverState::NoHandle;
+}
+
+std::string Document::solver_message() const {
+  if (build_) {
+    std::lock_guard lock(build_->mutex);
+    return build_->stage;
+  }
+  return failure_;
+}
+
+const Eigen::VectorXd* Document::field() const { return deformer_ ? &deformer_->field() : nullptr; }
+const DeformerTimings* Document::setup_timings() const { return deformer_ ? &deformer_->timings() : nullptr; }
+
+void Document::set_options(const DeformerOptions& options) {
+  options_ = options;
+  stop_pipeline();
+  deformer_.reset();
+  failure_.clear();
+}
+
+void Document::stop_pipeline() {
+  pipeline_.reset();  // waits for the update in flight
+}
+
+void Document::start_build() {
+  build_ = std::make_unique<Build>();
+  build_->constraints = current_stage().constraints();
+  build_->rest = rest_;
+  Build* build = build_.get();
+  const DeformerOptions options = options_;
+  build->thread = std::thread([build, options] {
+    try {
+      build->deformer = std::make_unique<Deformer>(*build->rest, build->constraints, options, [build](std::string_view stage) {
+        std::lock_guard lock(build->mutex);
+        build->stage = std::string(stage);
+      });
+    } catch (...) {
+      build->error = std::current_exception();
+    }
+    build->done = true;
+  });
+}
+
+void Document::install_build() {
+  if (build_->thread.joinable()) build_->thread.join();
+  std::unique_ptr<Build> build = std::move(build_);
+  const bool still_current = same_constraints(build->constraints, current_stage().constraints()) && build->rest == rest_;
+  if (!still_current) return;  // the next poll starts a build for the new constraints
+  if (build->error) {
+    try {
+      std::rethrow_exception(build->error);
+    } catch (const std::exception& error) {
+      failure_ = error.what();
+    }
+    stop_pipeline();
+    deformer_.reset();
+    deformer_constraints_ = build->constraints;
+    deformer_rest_ = rest_.get();
+    return;
+  }
+  failure_.clear();
+  stop_pipeline();
+  deformer_ = std::move(build->deformer);
+  deformer_constraints_ = build->constraints;
+  deformer_rest_ = rest_.get();
+  pipeline_ = std::make_unique<UpdatePipeline>(*deformer_, [this](const UpdatePipeline::Result& result) {
+    last_update_ms_ = result.update_ms;
+    if (publish_) publish_(result.positions);
+    last_published_ = result.request;
+  });
+  request_update();
+}
+
+void Document::poll() {
+  if (build_ && build_->done) install_build();
+  if (build_) return;
+  const EditConstraints constraints = current_stage().constraints();
+  if (constraints.handles.empty()) {
+    stop_pipeline();
+    deformer_.reset();
+    failure_.clear();
+    return;
+  }
+  const bool up_to_date = same_constraints(constraints, deformer_constraints_) && deformer_rest_ == rest_.get();
+  if (up_to_date && (deformer_ || !failure_.empty())) return;
+  failure_.clear();
+  start_build();
+}
+
+std::uint64_t Document::request_update() {
+  if (!pipeline_ || !deformer_ || !same_constraints(deformer_constraints_, current_stage().constraints())) return 0;
+  return pipeline_->submit(current_stage().transforms());
+}
+
+void Document::wait_until_ready() {
+  for (;;) {
+    poll();
+    if (!build_) return;
+    build_->thread.join();
+    build_->done = true;
+  }
+}
+
+Eigen::MatrixXd Document::result() {
+  wait_until_ready();
+  const EditStage stage = current_stage();
+  if (stage.handles.empty()) return rest_->positions;
+  if (!deformer_) throw SolveError(failure_.empty() ? "the deformation could not be set up" : failure_);
+  pipeline_->wait_idle();
+  Eigen::MatrixXd positions;
+  deformer_->deform(stage.transforms(), positions);
+  return positions;
+}
+
+}  // namespace hdeform::cli

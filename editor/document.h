@@ -1,0 +1,156 @@
+#pragma once
+// The editor's model, free of any window or GPU code: a session (mesh, applied stages, the
+// current stage) and what derives from it — the rest shape, the deformer for the current
+// constraints (rebuilt on a worker thread whenever they change, so painting never blocks), and
+// the update pipeline that turns handle poses into positions off the UI thread. Every finished
+// action is an undoable step.
+#include <Eigen/Core>
+#include <atomic>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <span>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "hdeform/deformer.h"
+#include "hdeform/update_pipeline.h"
+#include "selection.h"
+#include "session.h"
+
+namespace hdeform::cli {
+
+enum class Layer { RegionOfInterest, Fixed, Handle };
+
+class Document {
+ public:
+  // Called on a worker thread with each finished update's positions.
+  using Publish = std::function<void(const Eigen::MatrixXd& positions)>;
+
+  static constexpr int kFree = -1;
+  static constexpr int kFixed = -2;
+
+  // Replays the session's applied stages (slow for a large mesh: call from a worker). Throws
+  // InputError for indices that do not fit the mesh.
+  Document(Session session, Mesh base, DeformerOptions options, Publish publish);
+  ~Document();
+  Document(const Document&) = delete;
+  Document& operator=(const Document&) = delete;
+
+  // The state as a session (lists rebuilt from the per-vertex labels).
+  Session session() const;
+  const Mesh& rest() const { return *rest_; }
+  Eigen::Index vertex_count() const { return rest_->vertex_count(); }
+  const VertexAdjacency& adjacency() const { return adjacency_; }
+
+  // Per-vertex classes: kFree, kFixed or a handle index; and the region of interest (when empty,
+  // the whole mesh).
+  int label(int vertex) const { return labels_[static_cast<std::size_t>(vertex)]; }
+  bool has_region_of_interest() const { return roi_count_ > 0; }
+  bool in_region_of_interest(int vertex) const { return roi_[static_cast<std::size_t>(vertex)]; }
+
+  // Painting (one history step per call to commit()). Fixed and handle are exclusive: painting
+  // one takes the vertex from the other. `erase` removes the layer from the vertices.
+  void paint(std::span<const int> vertices, Layer layer, bool erase);
+  void invert(Layer layer);
+  void grow(Layer layer);
+  void shrink(Layer layer);
+  void clear(Layer layer);
+
+  std::size_t handle_count() const { return handles_.size(); }
+  int active_handle() const { return active_handle_; }
+  void set_active_handle(int handle);
+  int add_handle();  // becomes active
+  void remove_handle(int handle);
+  std::size_t handle_size(int handle) const;
+
+  // The active handle's pose: about its pivot (the centroid of its rest vertices).
+  const HandleTransform& pose(int handle) const { return handles_[static_cast<std::size_t>(handle)].transform; }
+  void set_pose(int handle, const Eigen::Vector3d& axis, double angle, double scale, const Eigen::Vector3d& shift);
+  void reset_poses();
+  // Makes the current result the rest shape (the stage is kept, its poses reset).
+  void apply();
+
+  // Records the current state as one undo step if it differs from the last one.
+  void commit();
+  bool can_undo() const { return history_index_ > 0; }
+  bool can_redo() const { return history_index_ + 1 < history_.size(); }
+  bool undo();
+  bool redo();
+  // Whether the state differs from the one last marked saved.
+  bool modified() const;
+  void mark_saved();
+
+  // Solver state, for the UI.
+  enum class SolverState { NoHandle, Building, Ready, Failed };
+  SolverState solver_state() const;
+  std::string solver_message() const;  // the build's current stage, or the failure
+  // Call each frame on the UI thread: installs a finished rebuild, starts one when needed.
+  void poll();
+  // The harmonic field of the ready deformer, or nullptr.
+  const Eigen::VectorXd* field() const;
+  const DeformerTimings* setup_timings() const;
+  double last_update_ms() const { return last_update_ms_.load(); }
+  const DeformerOptions& options() const { return options_; }
+  void set_options(const DeformerOptions& options);
+
+  // Posts the current poses to the pipeline (newest wins); returns the request number (0 when
+  // nothing is solved yet).
+  std::uint64_t request_update();
+  std::uint64_t last_published_request() const { return last_published_.load(); }
+  // The positions for the current poses, exactly as `hdeform edit --session` computes them
+  // (waits for a pending rebuild and the update in flight).
+  Eigen::MatrixXd result();
+  // Blocks until no rebuild is running (for tests and saving).
+  void wait_until_ready();
+
+ private:
+  struct Handle {
+    HandleTransform transform;
+  };
+  struct Snapshot {
+    Session session;
+    std::shared_ptr<const Mesh> rest;
+  };
+  struct Build;
+
+  EditStage current_stage() const;
+  void load_stage(const EditStage& stage);
+  void relabel(int vertex, int label);
+  void refresh_pivot(int handle);
+  std::vector<bool> members(Layer layer) const;
+  void set_members(Layer layer, const std::vector<bool>& members);
+  void start_build();
+  void install_build();
+  void stop_pipeline();
+
+  std::string mesh_name_;
+  Mesh base_;
+  std::shared_ptr<const Mesh> rest_;
+  std::vector<EditStage> applied_;
+  VertexAdjacency adjacency_;
+  std::vector<int> labels_;
+  std::vector<bool> roi_;
+  std::size_t roi_count_ = 0;
+  std::vector<Handle> handles_;
+  std::vector<std::size_t> handle_sizes_;
+  int active_handle_ = 0;
+
+  DeformerOptions options_;
+  Publish publish_;
+  std::unique_ptr<Deformer> deformer_;
+  EditConstraints deformer_constraints_;
+  const Mesh* deformer_rest_ = nullptr;
+  std::unique_ptr<UpdatePipeline> pipeline_;
+  std::unique_ptr<Build> build_;
+  std::string failure_;
+  std::atomic<double> last_update_ms_{0.0};
+  std::atomic<std::uint64_t> last_published_{0};
+
+  std::vector<Snapshot> history_;
+  std::size_t history_index_ = 0;
+  std::size_t saved_index_ = 0;
+};
+
+}  // namespace hdeform::cli

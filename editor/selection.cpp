@@ -1,0 +1,102 @@
+#include "selection.h"
+
+#include <algorithm>
+
+namespace hdeform::cli {
+
+VertexAdjacency::VertexAdjacency(const Eigen::MatrixXi& triangles, Eigen::Index vertex_count) {
+  std::vector<std::pair<int, int>> edges;
+  edges.reserve(static_cast<std::size_t>(triangles.size()) * 2);
+  for (Eigen::Index t = 0; t < triangles.rows(); ++t) {
+    for (int k = 0; k < 3; ++k) {
+      const int a = triangles(t, k), b = triangles(t, (k + 1) % 3);
+      if (a == b) continue;
+      edges.emplace_back(a, b);
+      edges.emplace_back(b, a);
+    }
+  }
+  std::sort(edges.begin(), edges.end());
+  edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
+  start_.assign(static_cast<std::size_t>(vertex_count) + 1, 0);
+  for (const auto& [a, b] : edges) ++start_[static_cast<std::size_t>(a) + 1];
+  for (std::size_t v = 0; v + 1 < start_.size(); ++v) start_[v + 1] += start_[v];
+  neighbours_.resize(edges.size());
+  for (std::size_t k = 0; k < edges.size(); ++k) neighbours_[k] = edges[k].second;  // sorted by first: already in place
+}
+
+std::vector<int> vertices_in_ball(std::span<const float> position_normal, const Eigen::Vector3f& center, float radius) {
+  std::vector<int> inside;
+  const float radius_squared = radius * radius;
+  const std::size_t n = position_normal.size() / 6;
+  for (std::size_t v = 0; v < n; ++v) {
+    const Eigen::Vector3f p(position_normal[6 * v], position_normal[6 * v + 1], position_normal[6 * v + 2]);
+    if ((p - center).squaredNorm() <= radius_squared) inside.push_back(static_cast<int>(v));
+  }
+  return inside;
+}
+
+std::vector<int> vertices_in_lasso(std::span<const float> position_normal, std::span<const Eigen::Vector2f> polygon,
+                                   const Eigen::Matrix4f& view_projection, float width, float height, const Eigen::Vector3f& towards_viewer) {
+  std::vector<int> inside;
+  if (polygon.size() < 3) return inside;
+  const std::size_t n = position_normal.size() / 6;
+  for (std::size_t v = 0; v < n; ++v) {
+    const float* data = position_normal.data() + 6 * v;
+    if (Eigen::Vector3f(data[3], data[4], data[5]).dot(towards_viewer) <= 0.0f) continue;
+    const Eigen::Vector4f clip = view_projection * Eigen::Vector4f(data[0], data[1], data[2], 1.0f);
+    if (clip.w() <= 0.0f) continue;
+    const Eigen::Vector2f pixel((clip.x() / clip.w() * 0.5f + 0.5f) * width, (clip.y() / clip.w() * 0.5f + 0.5f) * height);
+    // Even-odd rule.
+    bool in = false;
+    for (std::size_t i = 0, j = polygon.size() - 1; i < polygon.size(); j = i++) {
+      const auto& a = polygon[i];
+      const auto& b = polygon[j];
+      if ((a.y() > pixel.y()) != (b.y() > pixel.y()) && pixel.x() < (b.x() - a.x()) * (pixel.y() - a.y()) / (b.y() - a.y()) + a.x()) in = !in;
+    }
+    if (in) inside.push_back(static_cast<int>(v));
+  }
+  return inside;
+}
+
+std::vector<bool> grown(const std::vector<bool>& members, const VertexAdjacency& adjacency) {
+  std::vector<bool> result = members;
+  for (std::size_t v = 0; v < members.size(); ++v) {
+    if (!members[v]) continue;
+    for (const int u : adjacency.neighbours(static_cast<int>(v))) result[static_cast<std::size_t>(u)] = true;
+  }
+  return result;
+}
+
+std::vector<bool> shrunk(const std::vector<bool>& members, const VertexAdjacency& adjacency) {
+  std::vector<bool> result = members;
+  for (std::size_t v = 0; v < members.size(); ++v) {
+    if (!members[v]) continue;
+    for (const int u : adjacency.neighbours(static_cast<int>(v))) {
+      if (!members[static_cast<std::size_t>(u)]) {
+        result[v] = false;
+        break;
+      }
+    }
+  }
+  return result;
+}
+
+std::vector<int> connected_vertices(int seed, const VertexAdjacency& adjacency) {
+  std::vector<bool> seen(adjacency.vertex_count(), false);
+  std::vector<int> found{seed}, stack{seed};
+  seen[static_cast<std::size_t>(seed)] = true;
+  while (!stack.empty()) {
+    const int v = stack.back();
+    stack.pop_back();
+    for (const int u : adjacency.neighbours(v)) {
+      if (seen[static_cast<std::size_t>(u)]) continue;
+      seen[static_cast<std::size_t>(u)] = true;
+      found.push_back(u);
+      stack.push_back(u);
+    }
+  }
+  std::sort(found.begin(), found.end());
+  return found;
+}
+
+}  // namespace hdeform::cli

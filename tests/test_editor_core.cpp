@@ -1,0 +1,178 @@
+#include <random>
+
+#include "document.h"
+#include "hdeform/engine/geometry_exchange.h"
+#include "hdeform/shapes.h"
+#include "mesh_picker.h"
+#include "selection.h"
+#include "test_support.h"
+
+namespace hdeform {
+namespace {
+
+std::vector<float> snapshot_of(const Mesh& mesh) {
+  engine::GeometryExchange exchange(static_cast<std::size_t>(mesh.vertex_count()));
+  engine::GeometryPublisher(exchange, mesh.triangles).publish(mesh.positions);
+  return exchange.acquire()->position_normal;
+}
+
+// The closest hit by testing every triangle.
+std::optional<std::pair<int, float>> brute_force_pick(const Mesh& mesh, const Eigen::ParametrizedLine<float, 3>& ray) {
+  std::optional<std::pair<int, float>> best;
+  for (Eigen::Index t = 0; t < mesh.triangle_count(); ++t) {
+    const Eigen::Vector3f a = mesh.positions.row(mesh.triangles(t, 0)).cast<float>(), b = mesh.positions.row(mesh.triangles(t, 1)).cast<float>(),
+                          c = mesh.positions.row(mesh.triangles(t, 2)).cast<float>();
+    const Eigen::Vector3f n = (b - a).cross(c - a);
+    const float denominator = n.dot(ray.direction());
+    if (std::abs(denominator) < 1e-12f) continue;
+    const float distance = n.dot(a - ray.origin()) / denominator;
+    if (distance <= 0.0f) continue;
+    const Eigen::Vector3f p = ray.pointAt(distance);
+    const bool inside = (b - a).cross(p - a).dot(n) >= 0 && (c - b).cross(p - b).dot(n) >= 0 && (a - c).cross(p - c).dot(n) >= 0;
+    if (inside && (!best || distance < best->second)) best = std::pair{static_cast<int>(t), distance};
+  }
+  return best;
+}
+
+TEST(MeshPicker, FindsTheSameNearestTriangleAsTestingEveryOne) {
+  const Mesh mesh = make_shape(ShapeKind::Cactus, 24).mesh;
+  const cli::MeshPicker picker(mesh.triangles, snapshot_of(mesh));
+  std::mt19937 random(3);
+  std::uniform_real_distribution<float> uniform(-1.0f, 1.0f);
+  int hits = 0;
+  for (int k = 0; k < 300; ++k) {
+    const Eigen::Vector3f origin(1.5f * uniform(random), 1.5f * uniform(random), 0.5f + uniform(random));
+    const Eigen::Vector3f target(0.1f * uniform(random), 0.3f * uniform(random), 0.45f + 0.4f * uniform(random));
+    const Eigen::ParametrizedLine<float, 3> ray(origin, (target - origin).normalized());
+    const auto hit = picker.pick(ray);
+    const auto expected = brute_force_pick(mesh, ray);
+    ASSERT_EQ(hit.has_value(), expected.has_value()) << "ray " << k;
+    if (!hit) continue;
+    ++hits;
+    EXPECT_NEAR(hit->distance, expected->second, 1e-4f);
+    EXPECT_TRUE(hit->vertex == mesh.triangles(hit->triangle, 0) || hit->vertex == mesh.triangles(hit->triangle, 1) ||
+                hit->vertex == mesh.triangles(hit->triangle, 2));
+  }
+  EXPECT_GT(hits, 100);
+}
+
+TEST(MeshPicker, FollowsTheMeshAfterARefit) {
+  Mesh mesh = make_shape(ShapeKind::Sphere, 16).mesh;
+  cli::MeshPicker picker(mesh.triangles, snapshot_of(mesh));
+  const Eigen::ParametrizedLine<float, 3> ray(Eigen::Vector3f(5.0f, 0.0f, 0.0f), -Eigen::Vector3f::UnitX());
+  ASSERT_TRUE(picker.pick(ray));
+  EXPECT_NEAR(picker.pick(ray)->distance, 4.5f, 0.01f);
+  mesh.positions.col(1).array() += 3.0;  // moved out of the ray's way
+  picker.refit(snapshot_of(mesh));
+  EXPECT_FALSE(picker.pick(ray));
+  const Eigen::ParametrizedLine<float, 3> moved_ray(Eigen::Vector3f(5.0f, 3.0f, 0.0f), -Eigen::Vector3f::UnitX());
+  ASSERT_TRUE(picker.pick(moved_ray));
+  EXPECT_NEAR(picker.pick(moved_ray)->distance, 4.5f, 0.01f);
+}
+
+TEST(Selection, BallLassoGrowShrinkAndConnected) {
+  const int cells = 10;
+  const Mesh grid = test::planar_grid(cells);
+  const auto snapshot = snapshot_of(grid);
+  const cli::VertexAdjacency adjacency(grid.triangles, grid.vertex_count());
+  // Ball: radius just over one cell around the middle vertex: it and its 4 axis neighbours.
+  const int middle = (cells / 2) * (cells + 1) + cells / 2;
+  EXPECT_EQ(cli::vertices_in_ball(snapshot, grid.positions.row(middle).transpose().cast<float>(), 0.101f).size(), 5u);
+  // Lasso: an orthographic-like view of the unit square filling 100×100 pixels.
+  Eigen::Matrix4f view_projection = Eigen::Matrix4f::Identity();
+  view_projection(0, 0) = 2.0f;
+  view_projection(0, 3) = -1.0f;
+  view_projection(1, 1) = 2.0f;
+  view_projection(1, 3) = -1.0f;
+  const std::vector<Eigen::Vector2f> square{{24, 24}, {76, 24}, {76, 76}, {24, 76}};
+  const auto lassoed = cli::vertices_in_lasso(snapshot, square, view_projection, 100, 100, Eigen::Vector3f::UnitZ());
+  EXPECT_EQ(lassoed.size(), 25u);  // x, y in {0.3, ..., 0.7}
+  EXPECT_TRUE(cli::vertices_in_lasso(snapshot, square, view_projection, 100, 100, -Eigen::Vector3f::UnitZ()).empty());  // facing away
+  std::vector<bool> one(static_cast<std::size_t>(grid.vertex_count()), false);
+  one[static_cast<std::size_t>(middle)] = true;
+  const auto ring = cli::grown(one, adjacency);
+  EXPECT_EQ(std::count(ring.begin(), ring.end(), true), 1 + static_cast<long>(adjacency.neighbours(middle).size()));
+  EXPECT_EQ(cli::shrunk(ring, adjacency), one);
+  EXPECT_EQ(cli::connected_vertices(0, adjacency).size(), static_cast<std::size_t>(grid.vertex_count()));
+}
+
+class DocumentTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    shape = make_shape(ShapeKind::Cactus, 24);
+    cli::Session session;
+    session.mesh = "shape:cactus:24";
+    document = std::make_unique<cli::Document>(session, shape.mesh, DeformerOptions{}, [this](const Eigen::MatrixXd&) { ++publications; });
+  }
+  Shape shape;
+  std::unique_ptr<cli::Document> document;
+  std::atomic<int> publications{0};
+};
+
+TEST_F(DocumentTest, PaintingKeepsFixedAndHandlesExclusiveAndUndoes) {
+  const auto& fixed = shape.demo_constraints.fixed;
+  const auto& handle = shape.demo_constraints.handles[0];
+  document->paint(fixed, cli::Layer::Fixed, false);
+  document->commit();
+  document->paint(handle, cli::Layer::Handle, false);
+  document->commit();
+  EXPECT_EQ(document->handle_count(), 1u);
+  EXPECT_EQ(document->session().current.fixed, fixed);
+  EXPECT_EQ(document->session().current.handles.at(0).vertices, handle);
+  // Painting fixed over a handle vertex takes it from the handle.
+  document->paint(std::vector<int>{handle[0]}, cli::Layer::Fixed, false);
+  EXPECT_EQ(document->label(handle[0]), cli::Document::kFixed);
+  EXPECT_EQ(document->handle_size(0), handle.size() - 1);
+  document->commit();
+  ASSERT_TRUE(document->undo());
+  EXPECT_EQ(document->label(handle[0]), 0);
+  ASSERT_TRUE(document->undo());
+  EXPECT_EQ(document->handle_count(), 0u);  // before the handle was painted
+  ASSERT_TRUE(document->redo());
+  EXPECT_EQ(document->session().current.handles.at(0).vertices, handle);
+  // Invert the fixed set: every vertex that is neither fixed nor in the handle becomes fixed.
+  document->invert(cli::Layer::Fixed);
+  const auto session = document->session();
+  EXPECT_EQ(session.current.fixed.size() + fixed.size() + handle.size(), static_cast<std::size_t>(shape.mesh.vertex_count()));
+}
+
+TEST_F(DocumentTest, TheResultIsTheBatchReplayOfItsSessionAndApplyChainsStages) {
+  document->paint(shape.demo_constraints.fixed, cli::Layer::Fixed, false);
+  document->paint(shape.demo_constraints.handles[0], cli::Layer::Handle, false);
+  document->set_pose(0, Eigen::Vector3d::UnitX(), 1.2, 1.0, Eigen::Vector3d(0.0, -0.05, 0.0));
+  document->commit();
+  document->wait_until_ready();
+  EXPECT_EQ(document->solver_state(), cli::Document::SolverState::Ready);
+  ASSERT_NE(document->field(), nullptr);
+  const Eigen::MatrixXd result = document->result();
+  EXPECT_EQ(result, cli::replay_session(document->session(), shape.mesh, {}));
+  EXPECT_GT((result - shape.mesh.positions).cwiseAbs().maxCoeff(), 0.02);
+  // The pipeline published at least one update on its own thread.
+  for (int k = 0; k < 200 && publications.load() == 0; ++k) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  EXPECT_GT(publications.load(), 0);
+
+  document->apply();
+  document->commit();
+  EXPECT_EQ(document->rest().positions, result);
+  EXPECT_EQ(document->pose(0).angle, 0.0);
+  document->set_pose(0, Eigen::Vector3d::UnitX(), 0.5, 1.0, Eigen::Vector3d::Zero());
+  const Eigen::MatrixXd second = document->result();
+  EXPECT_EQ(second, cli::replay_session(document->session(), shape.mesh, {}));
+  ASSERT_TRUE(document->undo());  // back before apply
+  EXPECT_EQ(document->rest().positions, shape.mesh.positions);
+}
+
+TEST_F(DocumentTest, ARebuildRunsOffTheCallingThreadAndTheStateSaysSo) {
+  EXPECT_EQ(document->solver_state(), cli::Document::SolverState::NoHandle);
+  document->paint(shape.demo_constraints.handles[0], cli::Layer::Handle, false);
+  document->poll();
+  const auto state = document->solver_state();
+  EXPECT_TRUE(state == cli::Document::SolverState::Building || state == cli::Document::SolverState::Ready);
+  document->wait_until_ready();
+  EXPECT_EQ(document->solver_state(), cli::Document::SolverState::Ready);
+  // A handle that holds every vertex of a component but no fixed vertex: still solvable (rigid).
+  EXPECT_NE(document->field(), nullptr);
+}
+
+}  // namespace
+}  // namespace hdeform
