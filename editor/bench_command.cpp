@@ -10,6 +10,7 @@
 #include "hdeform/constraint_io.h"
 #include "hdeform/deformer.h"
 #include "hdeform/errors.h"
+#include "hdeform/update_pipeline.h"
 #ifdef HDEFORM_WITH_ENGINE
 #include "render_bench.h"
 #endif
@@ -185,6 +186,21 @@ class BenchCommand final : public BatchCommand {
         report["two_handle_update_ms"][name] = to_json(drag(deformer, two_transforms, positions, &stages));
         if (schedule == default_schedule()) report["two_handle_stage_ms"] = stages;
       }
+    }
+
+    // The update as the editor runs it: posted to the pipeline's thread, one request at a time.
+    {
+      progress("pipeline");
+      Deformer deformer(mesh, constraints);
+      std::vector<double> samples;
+      UpdatePipeline pipeline(deformer, [&](const UpdatePipeline::Result& result) { samples.push_back(result.update_ms); });
+      for (int k = 0; k <= steps_; ++k) {
+        const HandleTransform step = transform.at_fraction(std::max(k, 1) / static_cast<double>(steps_));
+        pipeline.submit(std::span(&step, 1));
+        pipeline.wait_idle();
+      }
+      samples.erase(samples.begin());  // the warm-up
+      report["pipeline_update_ms"] = to_json(summarize(samples));
     }
     finish(report);
     return 0;

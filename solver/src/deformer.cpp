@@ -88,8 +88,9 @@ Deformer::Deformer(Mesh rest, EditConstraints constraints, DeformerOptions optio
   timings_.field_ms = milliseconds_since(start);
   prepare_update_triangles();
 
-  // The update graph and every buffer it touches, allocated once.
-  graph_ = std::make_unique<UpdateGraph>();
+  // The update graph and every buffer it touches, allocated once; the graph attaches to the
+  // arena it is created in.
+  update_arena_.execute([this] { graph_ = std::make_unique<UpdateGraph>(); });
   auto& g = *graph_;
   const auto free_rows = system_->free_count();
   const auto vertex_count = rest_.vertex_count();
@@ -238,8 +239,10 @@ void Deformer::deform(std::span<const HandleTransform> transforms, Eigen::Matrix
   last_update_ = UpdateTimings{};
   graph_->transforms = transforms;
   graph_->positions = &positions;
-  graph_->start.try_put(Message());
-  graph_->graph.wait_for_all();
+  update_arena_.execute([this] {
+    graph_->start.try_put(Message());
+    graph_->graph.wait_for_all();
+  });
   last_update_.total_ms = milliseconds_since(start);
 }
 

@@ -8,33 +8,43 @@ UpdatePipeline::UpdatePipeline(Deformer& deformer, Publish publish) : deformer_(
   pending_.reserve(deformer.handle_count());
   current_.reserve(deformer.handle_count());
   positions_ = deformer.rest().positions;
+  thread_ = std::thread([this] { run(); });
 }
 
-UpdatePipeline::~UpdatePipeline() { wait_idle(); }
+UpdatePipeline::~UpdatePipeline() {
+  {
+    std::lock_guard lock(mutex_);
+    stopping_ = true;
+    has_pending_ = false;
+  }
+  wake_.notify_all();
+  thread_.join();
+}
 
 std::uint64_t UpdatePipeline::submit(std::span<const HandleTransform> transforms) {
-  std::lock_guard lock(mutex_);
-  pending_.assign(transforms.begin(), transforms.end());
-  if (has_pending_) ++superseded_;
-  has_pending_ = true;
-  pending_request_ = ++submitted_;
-  if (!running_) {
+  std::uint64_t request = 0;
+  {
+    std::lock_guard lock(mutex_);
+    pending_.assign(transforms.begin(), transforms.end());
+    if (has_pending_) ++superseded_;
+    has_pending_ = true;
     running_ = true;
-    // A task in our own arena, not a task_group run from a foreign thread (oneTBB#738).
-    arena_.enqueue([this] { drain(); });
+    request = pending_request_ = ++submitted_;
   }
-  return pending_request_;
+  wake_.notify_one();
+  return request;
 }
 
-void UpdatePipeline::drain() {
+void UpdatePipeline::run() {
   for (;;) {
     std::uint64_t request = 0;
     {
-      std::lock_guard lock(mutex_);
+      std::unique_lock lock(mutex_);
       if (!has_pending_) {
         running_ = false;
         idle_.notify_all();
-        return;
+        wake_.wait(lock, [this] { return has_pending_ || stopping_; });
+        if (stopping_) return;
       }
       std::swap(current_, pending_);
       has_pending_ = false;

@@ -11,6 +11,8 @@
 #include <string_view>
 #include <vector>
 
+#include <tbb/task_arena.h>
+
 #include "hdeform/constraints.h"
 #include "hdeform/dirichlet_system.h"
 #include "hdeform/handle_transform.h"
@@ -93,6 +95,11 @@ class Deformer {
   std::vector<int> update_triangles_;      // mesh triangles with a free corner, in assembly order
   Eigen::MatrixXi update_mesh_triangles_;  // their corners
   Eigen::VectorXd triangle_field_;         // h at their barycenters
+  // The update graph lives in an arena of its own, which whatever thread calls deform() joins as
+  // its master while the TBB workers help. Attached to the constructing thread's arena instead,
+  // the graph could only be driven by delegating to a worker, and on 2 cores that left the
+  // update's parallel stages one thread (8.0 ms instead of 4.8 ms per buddha-206k update).
+  tbb::task_arena update_arena_;
   std::unique_ptr<UpdateGraph> graph_;
 };
 

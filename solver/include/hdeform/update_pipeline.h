@@ -3,6 +3,10 @@
 // When transforms arrive faster than updates finish, the newest wins: a request replaces the
 // one still waiting instead of queueing behind it, so the result on screen is never stale by
 // more than the update in flight.
+//
+// The updates run on a thread of the pipeline's own, not on a TBB worker: a worker driving the
+// update would be one of the P-1 workers TBB starts, leaving its parallel stages one thread
+// fewer (on 2 cores, none to help).
 #include <Eigen/Core>
 #include <condition_variable>
 #include <cstdint>
@@ -10,9 +14,8 @@
 #include <functional>
 #include <mutex>
 #include <span>
+#include <thread>
 #include <vector>
-
-#include <tbb/task_arena.h>
 
 #include "hdeform/deformer.h"
 
@@ -30,7 +33,7 @@ class UpdatePipeline {
 
   // Keeps references to both; the deformer must outlive the pipeline.
   UpdatePipeline(Deformer& deformer, Publish publish);
-  ~UpdatePipeline();  // waits for the update in flight
+  ~UpdatePipeline();  // finishes the update in flight; a request still waiting is dropped
   UpdatePipeline(const UpdatePipeline&) = delete;
   UpdatePipeline& operator=(const UpdatePipeline&) = delete;
 
@@ -45,23 +48,25 @@ class UpdatePipeline {
   std::exception_ptr last_error() const;
 
  private:
-  void drain();
+  void run();
 
   Deformer& deformer_;
   Publish publish_;
   mutable std::mutex mutex_;
   std::condition_variable idle_;
+  std::condition_variable wake_;
   std::vector<HandleTransform> pending_;
   std::vector<HandleTransform> current_;
   bool has_pending_ = false;
   bool running_ = false;
+  bool stopping_ = false;
   std::uint64_t submitted_ = 0;
   std::uint64_t pending_request_ = 0;
   std::uint64_t finished_ = 0;
   std::uint64_t superseded_ = 0;
   std::exception_ptr error_;
   Eigen::MatrixXd positions_;
-  tbb::task_arena arena_;
+  std::thread thread_;  // last: starts once every member above exists
 };
 
 }  // namespace hdeform
