@@ -23,6 +23,15 @@ FrameSlots::FrameSlots(const VulkanContext& context, uint32_t count) : context_(
 FrameSlots::~FrameSlots() {
   const VkDevice device = context_.device();
   vkDeviceWaitIdle(device);
+  if (watcher_.joinable()) {
+    {
+      std::lock_guard lock(completions_mutex_);
+      stopping_ = true;
+    }
+    submitted_signal_.notify_all();
+    watcher_.join();
+  }
+  if (timeline_ != VK_NULL_HANDLE) vkDestroySemaphore(device, timeline_, nullptr);
   for (Slot& slot : slots_) {
     vkDestroySemaphore(device, slot.image_available, nullptr);
     vkDestroyFence(device, slot.fence, nullptr);
@@ -41,19 +50,84 @@ FrameSlots::Slot& FrameSlots::begin() {
   return slot;
 }
 
-void FrameSlots::submit(Slot& slot, VkSemaphore wait, VkSemaphore signal) {
+std::uint64_t FrameSlots::submit(Slot& slot, VkSemaphore wait, VkSemaphore signal) {
   check(vkEndCommandBuffer(slot.commands), "vkEndCommandBuffer");
   check(vkResetFences(context_.device(), 1, &slot.fence), "vkResetFences");
   const VkPipelineStageFlags wait_stage = VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT;
+  const std::uint64_t frame = submitted_ + 1;
+  std::vector<VkSemaphore> signals;
+  std::vector<std::uint64_t> values;
+  if (signal != VK_NULL_HANDLE) {
+    signals.push_back(signal);
+    values.push_back(0);  // binary: ignored
+  }
+  if (timeline_ != VK_NULL_HANDLE) {
+    signals.push_back(timeline_);
+    values.push_back(frame);
+  }
+  VkTimelineSemaphoreSubmitInfo timeline{VK_STRUCTURE_TYPE_TIMELINE_SEMAPHORE_SUBMIT_INFO};
+  timeline.signalSemaphoreValueCount = static_cast<uint32_t>(values.size());
+  timeline.pSignalSemaphoreValues = values.data();
   VkSubmitInfo submit{VK_STRUCTURE_TYPE_SUBMIT_INFO};
+  if (timeline_ != VK_NULL_HANDLE) submit.pNext = &timeline;
   submit.waitSemaphoreCount = wait != VK_NULL_HANDLE ? 1 : 0;
   submit.pWaitSemaphores = &wait;
   submit.pWaitDstStageMask = &wait_stage;
   submit.commandBufferCount = 1;
   submit.pCommandBuffers = &slot.commands;
-  submit.signalSemaphoreCount = signal != VK_NULL_HANDLE ? 1 : 0;
-  submit.pSignalSemaphores = &signal;
-  check(vkQueueSubmit(context_.queue(), 1, &submit, slot.fence), "vkQueueSubmit");
+  submit.signalSemaphoreCount = static_cast<uint32_t>(signals.size());
+  submit.pSignalSemaphores = signals.data();
+  {
+    std::lock_guard lock(context_.queue_mutex());
+    check(vkQueueSubmit(context_.queue(), 1, &submit, slot.fence), "vkQueueSubmit");
+  }
+  {
+    std::lock_guard lock(completions_mutex_);
+    submitted_ = frame;
+  }
+  submitted_signal_.notify_all();
+  return frame;
+}
+
+void FrameSlots::enable_completion_times() {
+  if (timeline_ != VK_NULL_HANDLE || !context_.has_timeline_semaphores()) return;
+  VkSemaphoreTypeCreateInfo type{VK_STRUCTURE_TYPE_SEMAPHORE_TYPE_CREATE_INFO};
+  type.semaphoreType = VK_SEMAPHORE_TYPE_TIMELINE;
+  type.initialValue = submitted_;
+  VkSemaphoreCreateInfo info{VK_STRUCTURE_TYPE_SEMAPHORE_CREATE_INFO};
+  info.pNext = &type;
+  check(vkCreateSemaphore(context_.device(), &info, nullptr, &timeline_), "vkCreateSemaphore");
+  const std::uint64_t first = submitted_ + 1;
+  watcher_ = std::thread([this, first] {
+    for (std::uint64_t frame = first;; ++frame) {
+      {
+        std::unique_lock lock(completions_mutex_);
+        submitted_signal_.wait(lock, [&] { return stopping_ || submitted_ >= frame; });
+        if (submitted_ < frame) return;
+      }
+      VkSemaphoreWaitInfo wait{VK_STRUCTURE_TYPE_SEMAPHORE_WAIT_INFO};
+      wait.semaphoreCount = 1;
+      wait.pSemaphores = &timeline_;
+      wait.pValues = &frame;
+      if (vkWaitSemaphores(context_.device(), &wait, UINT64_MAX) != VK_SUCCESS) return;
+      std::lock_guard lock(completions_mutex_);
+      completions_.push_back({frame, std::chrono::steady_clock::now()});
+    }
+  });
+}
+
+std::vector<FrameSlots::Completion> FrameSlots::take_completions() {
+  std::lock_guard lock(completions_mutex_);
+  std::vector<Completion> taken;
+  taken.swap(completions_);
+  return taken;
+}
+
+bool FrameSlots::next_ready(std::chrono::nanoseconds timeout) {
+  const VkResult result = vkWaitForFences(context_.device(), 1, &slots_[next_].fence, VK_TRUE, static_cast<uint64_t>(timeout.count()));
+  if (result == VK_TIMEOUT) return false;
+  check(result, "vkWaitForFences");
+  return true;
 }
 
 void FrameSlots::wait_all() {

@@ -64,8 +64,9 @@ void VertexNormals::write(const Eigen::MatrixXd& positions, GeometrySnapshot& sn
 GeometryPublisher::GeometryPublisher(GeometryExchange& exchange, const Eigen::MatrixXi& triangles)
     : exchange_(exchange), normals_(triangles, static_cast<Eigen::Index>(exchange.vertex_count())) {}
 
-void GeometryPublisher::publish(const Eigen::MatrixXd& positions) {
+void GeometryPublisher::publish(const Eigen::MatrixXd& positions, std::uint64_t tag) {
   normals_.write(positions, exchange_.back());
+  exchange_.back().tag = tag;
   exchange_.publish();
 }
 

@@ -344,6 +344,7 @@ void MeshRenderer::prepare(uint32_t frame_index, const Camera& camera, const Ren
       }
       frame.has_geometry = true;
       drawn_geometry_version_ = frame.geometry_version;
+      drawn_geometry_tag_ = snapshot->tag;
     }
   }
   if (frame.attributes_version != attributes_version_ && frame.attributes.mapped != nullptr) {

@@ -35,7 +35,8 @@ VkPresentModeKHR choose_present_mode(const VulkanContext& context, bool vsync) {
 
 }  // namespace
 
-SwapchainTarget::SwapchainTarget(const VulkanContext& context, std::function<VkExtent2D()> framebuffer_size, int samples, bool vsync)
+SwapchainTarget::SwapchainTarget(const VulkanContext& context, std::function<VkExtent2D()> framebuffer_size, int samples, bool vsync,
+                                 bool present_on_thread)
     : context_(context), framebuffer_size_(std::move(framebuffer_size)), vsync_(vsync) {
   if (context.surface() == VK_NULL_HANDLE) throw RenderError("a swapchain needs a context created with a window surface");
   const VkSurfaceFormatKHR surface_format = choose_surface_format(context);
@@ -45,9 +46,35 @@ SwapchainTarget::SwapchainTarget(const VulkanContext& context, std::function<VkE
   format_.samples = context.supported_samples(samples);
   render_pass_ = create_scene_render_pass(context, format_, VK_IMAGE_LAYOUT_PRESENT_SRC_KHR);
   create_swapchain();
+  if (present_on_thread) {
+    presenter_ = std::thread([this] {
+      std::unique_lock lock(present_mutex_);
+      for (;;) {
+        present_signal_.wait(lock, [this] { return stopping_ || !to_present_.empty(); });
+        if (to_present_.empty()) return;
+        const uint32_t image = to_present_.front();
+        to_present_.pop_front();
+        presenting_ = true;
+        lock.unlock();
+        present_now(image);
+        lock.lock();
+        presenting_ = false;
+        present_signal_.notify_all();
+      }
+    });
+  }
 }
 
 SwapchainTarget::~SwapchainTarget() {
+  if (presenter_.joinable()) {
+    wait_for_presenter();
+    {
+      std::lock_guard lock(present_mutex_);
+      stopping_ = true;
+    }
+    present_signal_.notify_all();
+    presenter_.join();
+  }
   vkDeviceWaitIdle(context_.device());
   destroy_swapchain();
   context_.destroy(copy_);
@@ -127,7 +154,15 @@ void SwapchainTarget::destroy_swapchain() {
   swapchain_ = VK_NULL_HANDLE;
 }
 
+void SwapchainTarget::wait_for_presenter() {
+  if (!presenter_.joinable()) return;
+  std::unique_lock lock(present_mutex_);
+  present_signal_.wait(lock, [this] { return to_present_.empty() && !presenting_; });
+}
+
 void SwapchainTarget::rebuild() {
+  wait_for_presenter();
+  out_of_date_ = false;
   vkDeviceWaitIdle(context_.device());
   destroy_swapchain();
   create_swapchain();
@@ -138,7 +173,7 @@ bool SwapchainTarget::acquire(VkSemaphore image_available, uint32_t& image) {
   // does not), so the size is compared here.
   const VkExtent2D size = framebuffer_size_();
   if (size.width == 0 || size.height == 0) return false;
-  if (swapchain_ == VK_NULL_HANDLE || size.width != extent_.width || size.height != extent_.height) {
+  if (swapchain_ == VK_NULL_HANDLE || out_of_date_ || size.width != extent_.width || size.height != extent_.height) {
     rebuild();
     if (swapchain_ == VK_NULL_HANDLE) return false;
   }
@@ -191,6 +226,19 @@ void SwapchainTarget::end(VkCommandBuffer commands, uint32_t image, bool keep_co
 }
 
 void SwapchainTarget::present(uint32_t image) {
+  if (!presenter_.joinable()) {
+    present_now(image);
+    if (out_of_date_) rebuild();
+    return;
+  }
+  {
+    std::lock_guard lock(present_mutex_);
+    to_present_.push_back(image);
+  }
+  present_signal_.notify_all();
+}
+
+void SwapchainTarget::present_now(uint32_t image) {
   const VkSemaphore wait = images_[image].render_finished;
   VkPresentInfoKHR info{VK_STRUCTURE_TYPE_PRESENT_INFO_KHR};
   info.waitSemaphoreCount = 1;
@@ -198,15 +246,20 @@ void SwapchainTarget::present(uint32_t image) {
   info.swapchainCount = 1;
   info.pSwapchains = &swapchain_;
   info.pImageIndices = &image;
-  const VkResult result = vkQueuePresentKHR(context_.queue(), &info);
+  VkResult result;
+  {
+    std::lock_guard lock(context_.queue_mutex());
+    result = vkQueuePresentKHR(context_.queue(), &info);
+  }
   if (result == VK_ERROR_OUT_OF_DATE_KHR || result == VK_SUBOPTIMAL_KHR) {
-    rebuild();
+    out_of_date_ = true;  // rebuilt at the next acquire, on the rendering thread
     return;
   }
   check(result, "vkQueuePresentKHR");
 }
 
-Pixels SwapchainTarget::read_last_image() const {
+Pixels SwapchainTarget::read_last_image() {
+  wait_for_presenter();
   Pixels pixels{copy_extent_.width, copy_extent_.height, std::vector<uint8_t>(std::size_t{copy_extent_.width} * copy_extent_.height * 4)};
   if (pixels.rgba.empty()) return pixels;
   std::memcpy(pixels.rgba.data(), copy_.mapped, pixels.rgba.size());

@@ -135,16 +135,22 @@ VulkanContext::VulkanContext(const ContextOptions& options) {
     queue_info.queueFamilyIndex = queue_family_;
     queue_info.queueCount = 1;
     queue_info.pQueuePriorities = &priority;
-    VkPhysicalDeviceFeatures supported{};
-    vkGetPhysicalDeviceFeatures(physical_device_, &supported);
-    VkPhysicalDeviceFeatures features{};
-    features.fillModeNonSolid = supported.fillModeNonSolid;  // wireframe overlay
+    VkPhysicalDeviceVulkan12Features supported12{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_FEATURES};
+    VkPhysicalDeviceFeatures2 supported{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2};
+    supported.pNext = &supported12;
+    vkGetPhysicalDeviceFeatures2(physical_device_, &supported);
+    VkPhysicalDeviceVulkan12Features features12{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_VULKAN_1_2_FEATURES};
+    features12.timelineSemaphore = supported12.timelineSemaphore;  // frame completion times
+    timeline_semaphores_ = supported12.timelineSemaphore == VK_TRUE;
+    VkPhysicalDeviceFeatures2 features{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2};
+    features.pNext = &features12;
+    features.features.fillModeNonSolid = supported.features.fillModeNonSolid;  // wireframe overlay
     std::vector<const char*> device_extensions;
     if (surface_ != VK_NULL_HANDLE) device_extensions.push_back(VK_KHR_SWAPCHAIN_EXTENSION_NAME);
     VkDeviceCreateInfo device_info{VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO};
+    device_info.pNext = &features;
     device_info.queueCreateInfoCount = 1;
     device_info.pQueueCreateInfos = &queue_info;
-    device_info.pEnabledFeatures = &features;
     device_info.enabledExtensionCount = static_cast<uint32_t>(device_extensions.size());
     device_info.ppEnabledExtensionNames = device_extensions.data();
     check(vkCreateDevice(physical_device_, &device_info, nullptr, &device_), "vkCreateDevice");
@@ -346,7 +352,10 @@ void VulkanContext::submit_and_wait(const std::function<void(VkCommandBuffer)>& 
     VkSubmitInfo submit{VK_STRUCTURE_TYPE_SUBMIT_INFO};
     submit.commandBufferCount = 1;
     submit.pCommandBuffers = &commands;
-    check(vkQueueSubmit(queue_, 1, &submit, fence), "vkQueueSubmit");
+    {
+      std::lock_guard lock(queue_mutex_);
+      check(vkQueueSubmit(queue_, 1, &submit, fence), "vkQueueSubmit");
+    }
     check(vkWaitForFences(device_, 1, &fence, VK_TRUE, UINT64_MAX), "vkWaitForFences");
   } catch (...) {
     if (fence != VK_NULL_HANDLE) vkDestroyFence(device_, fence, nullptr);

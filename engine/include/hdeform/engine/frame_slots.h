@@ -2,6 +2,10 @@
 // Frames in flight: each slot has its own command buffer, fence and image-available semaphore.
 // A slot is reused only after its fence says the GPU finished with it, so the CPU can prepare the
 // next frame while the previous one renders.
+#include <chrono>
+#include <condition_variable>
+#include <mutex>
+#include <thread>
 #include <vector>
 
 #include "hdeform/engine/vulkan_context.h"
@@ -27,15 +31,34 @@ class FrameSlots {
   uint32_t count() const { return static_cast<uint32_t>(slots_.size()); }
   // The next slot, round robin, once the GPU has finished its previous frame; recording begun.
   Slot& begin();
+  // Whether the next slot's previous frame has finished, waiting at most `timeout`.
+  bool next_ready(std::chrono::nanoseconds timeout);
   // Ends recording and submits; waits on `wait` (at colour output) and signals `signal` if given.
-  void submit(Slot& slot, VkSemaphore wait = VK_NULL_HANDLE, VkSemaphore signal = VK_NULL_HANDLE);
+  // Returns the frame's number (1, 2, ...), which the completion timer reports back.
+  std::uint64_t submit(Slot& slot, VkSemaphore wait = VK_NULL_HANDLE, VkSemaphore signal = VK_NULL_HANDLE);
   // Waits until every slot's frame has finished.
   void wait_all();
+
+  // When each submitted frame finished on the device (needs timeline semaphores; a thread waits on
+  // the frame numbers in turn), for figures such as input-to-screen latency.
+  struct Completion {
+    std::uint64_t frame;
+    std::chrono::steady_clock::time_point time;
+  };
+  void enable_completion_times();
+  std::vector<Completion> take_completions();
 
  private:
   const VulkanContext& context_;
   std::vector<Slot> slots_;
   uint32_t next_ = 0;
+  std::uint64_t submitted_ = 0;
+  VkSemaphore timeline_ = VK_NULL_HANDLE;
+  std::thread watcher_;
+  std::mutex completions_mutex_;
+  std::condition_variable submitted_signal_;
+  std::vector<Completion> completions_;
+  bool stopping_ = false;
 };
 
 }  // namespace hdeform::engine

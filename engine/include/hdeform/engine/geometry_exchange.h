@@ -16,6 +16,7 @@ namespace hdeform::engine {
 struct GeometrySnapshot {
   std::vector<float> position_normal;
   std::uint64_t version = 0;  // increases with every publication
+  std::uint64_t tag = 0;      // the publisher's label (the editor: the request it answers)
 };
 
 class GeometryExchange {
@@ -62,7 +63,7 @@ class VertexNormals {
 class GeometryPublisher {
  public:
   GeometryPublisher(GeometryExchange& exchange, const Eigen::MatrixXi& triangles);
-  void publish(const Eigen::MatrixXd& positions);
+  void publish(const Eigen::MatrixXd& positions, std::uint64_t tag = 0);
 
  private:
   GeometryExchange& exchange_;

@@ -66,8 +66,9 @@ class MeshRenderer {
   // Records the draws inside a begun render pass.
   void record(VkCommandBuffer commands, uint32_t frame, VkExtent2D extent) const;
 
-  // Version of the geometry the last prepare() uploaded for its frame (0: none yet).
+  // Version and tag of the geometry the last prepare() took for its frame (0: none yet).
   std::uint64_t drawn_geometry_version() const { return drawn_geometry_version_; }
+  std::uint64_t drawn_geometry_tag() const { return drawn_geometry_tag_; }
 
  private:
   struct Frame {
@@ -112,6 +113,7 @@ class MeshRenderer {
   std::vector<Marker> markers_cpu_;
   std::uint64_t markers_version_ = 1;
   std::uint64_t drawn_geometry_version_ = 0;
+  std::uint64_t drawn_geometry_tag_ = 0;
 };
 
 }  // namespace hdeform::engine

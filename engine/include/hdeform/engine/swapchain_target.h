@@ -2,7 +2,12 @@
 // A window's swapchain as a render target (the window system stays outside: the context owns
 // the surface, and the caller says how big the framebuffer is). One render-finished semaphore
 // per swapchain image, as presentation may hold an image longer than a frame slot.
+#include <atomic>
+#include <condition_variable>
+#include <deque>
 #include <functional>
+#include <mutex>
+#include <thread>
 #include <vector>
 
 #include "hdeform/engine/render_targets.h"
@@ -12,7 +17,11 @@ namespace hdeform::engine {
 class SwapchainTarget {
  public:
   // `framebuffer_size` returns the window's framebuffer size in pixels (0×0 while minimised).
-  SwapchainTarget(const VulkanContext& context, std::function<VkExtent2D()> framebuffer_size, int samples, bool vsync);
+  // With `present_on_thread`, present() hands the image to a thread of its own and returns: a
+  // software presentation engine (lavapipe on X11) blocks in vkQueuePresentKHR until the frame
+  // is rendered and copied, a frame's time in which the caller could not take input.
+  SwapchainTarget(const VulkanContext& context, std::function<VkExtent2D()> framebuffer_size, int samples, bool vsync,
+                  bool present_on_thread = false);
   ~SwapchainTarget();
   SwapchainTarget(const SwapchainTarget&) = delete;
   SwapchainTarget& operator=(const SwapchainTarget&) = delete;
@@ -34,7 +43,7 @@ class SwapchainTarget {
   // Rebuilds for the current framebuffer size (after a resize event).
   void rebuild();
   // The last image ended with keep_copy, once its frame has finished (RGBA).
-  Pixels read_last_image() const;
+  Pixels read_last_image();
 
  private:
   struct SwapImage {
@@ -45,6 +54,8 @@ class SwapchainTarget {
   };
   void create_swapchain();
   void destroy_swapchain();
+  void present_now(uint32_t image);
+  void wait_for_presenter();
 
   const VulkanContext& context_;
   std::function<VkExtent2D()> framebuffer_size_;
@@ -58,6 +69,14 @@ class SwapchainTarget {
   SceneAttachments attachments_;
   Buffer copy_;
   VkExtent2D copy_extent_{0, 0};
+
+  std::thread presenter_;
+  std::mutex present_mutex_;
+  std::condition_variable present_signal_;
+  std::deque<uint32_t> to_present_;
+  bool presenting_ = false;
+  bool stopping_ = false;
+  std::atomic<bool> out_of_date_{false};
 };
 
 }  // namespace hdeform::engine

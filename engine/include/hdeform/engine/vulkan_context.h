@@ -64,11 +64,15 @@ class VulkanContext {
   VkQueue queue() const { return queue_; }
   uint32_t queue_family() const { return queue_family_; }
   VkCommandPool command_pool() const { return command_pool_; }  // for the thread that renders
+  // Held around every submission and presentation: a queue must not be used from two threads at
+  // once, and the swapchain may present from its own thread.
+  std::mutex& queue_mutex() const { return queue_mutex_; }
   VkSurfaceKHR surface() const { return surface_; }
   const VkPhysicalDeviceProperties& properties() const { return properties_; }
   std::string device_name() const { return properties_.deviceName; }
   bool is_cpu_device() const { return properties_.deviceType == VK_PHYSICAL_DEVICE_TYPE_CPU; }
   bool validation_enabled() const { return messenger_ != VK_NULL_HANDLE; }
+  bool has_timeline_semaphores() const { return timeline_semaphores_; }
 
   // Validation messages of severity warning or error since creation (0 without validation).
   std::size_t validation_message_count() const { return validation_messages_.load(); }
@@ -106,7 +110,9 @@ class VulkanContext {
   VkDevice device_ = VK_NULL_HANDLE;
   VkQueue queue_ = VK_NULL_HANDLE;
   uint32_t queue_family_ = 0;
+  bool timeline_semaphores_ = false;
   VkCommandPool command_pool_ = VK_NULL_HANDLE;
+  mutable std::mutex queue_mutex_;
   mutable std::mutex messages_mutex_;
   std::vector<std::string> messages_;
   std::atomic<std::size_t> validation_messages_{0};
