@@ -24,6 +24,7 @@ std::unique_ptr<BatchCommand> make_field_command();
 std::unique_ptr<BatchCommand> make_bench_command();
 #ifdef HDEFORM_WITH_ENGINE
 std::unique_ptr<BatchCommand> make_render_command();
+std::unique_ptr<BatchCommand> make_gui_command();
 #endif
 
 }  // namespace hdeform::cli

@@ -340,10 +340,12 @@ void Document::install_build() {
   deformer_ = std::move(build->deformer);
   deformer_constraints_ = build->constraints;
   deformer_rest_ = rest_.get();
-  pipeline_ = std::make_unique<UpdatePipeline>(*deformer_, [this](const UpdatePipeline::Result& result) {
+  request_base_ = last_request_;
+  const std::uint64_t base = request_base_;
+  pipeline_ = std::make_unique<UpdatePipeline>(*deformer_, [this, base](const UpdatePipeline::Result& result) {
     last_update_ms_ = result.update_ms;
-    if (publish_) publish_(result.positions);
-    last_published_ = result.request;
+    if (publish_) publish_(result.positions, base + result.request);
+    last_published_ = base + result.request;
   });
   request_update();
 }
@@ -366,7 +368,8 @@ void Document::poll() {
 
 std::uint64_t Document::request_update() {
   if (!pipeline_ || !deformer_ || !same_constraints(deformer_constraints_, current_stage().constraints())) return 0;
-  return pipeline_->submit(current_stage().transforms());
+  last_request_ = request_base_ + pipeline_->submit(current_stage().transforms());
+  return last_request_;
 }
 
 void Document::wait_until_ready() {

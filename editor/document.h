@@ -25,8 +25,9 @@ enum class Layer { RegionOfInterest, Fixed, Handle };
 
 class Document {
  public:
-  // Called on a worker thread with each finished update's positions.
-  using Publish = std::function<void(const Eigen::MatrixXd& positions)>;
+  // Called on a worker thread with each finished update's positions and the number that
+  // request_update() returned for it.
+  using Publish = std::function<void(const Eigen::MatrixXd& positions, std::uint64_t request)>;
 
   static constexpr int kFree = -1;
   static constexpr int kFixed = -2;
@@ -37,6 +38,9 @@ class Document {
   ~Document();
   Document(const Document&) = delete;
   Document& operator=(const Document&) = delete;
+
+  // Sets where results go; only before the first poll() (no pipeline yet).
+  void set_publish(Publish publish) { publish_ = std::move(publish); }
 
   // The state as a session (lists rebuilt from the per-vertex labels).
   Session session() const;
@@ -147,6 +151,8 @@ class Document {
   std::string failure_;
   std::atomic<double> last_update_ms_{0.0};
   std::atomic<std::uint64_t> last_published_{0};
+  std::uint64_t request_base_ = 0;  // requests of earlier pipelines, so that numbers keep growing
+  std::uint64_t last_request_ = 0;
 
   std::vector<Snapshot> history_;
   std::size_t history_index_ = 0;

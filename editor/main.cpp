@@ -27,7 +27,7 @@ int main(int argc, char** argv) {
   std::vector<std::pair<CLI::App*, std::unique_ptr<cli::BatchCommand>>> commands;
   for (auto make : {cli::make_edit_command, cli::make_field_command, cli::make_bench_command,
 #ifdef HDEFORM_WITH_ENGINE
-                    cli::make_render_command,
+                    cli::make_render_command, cli::make_gui_command,
 #endif
                    }) {
     auto command = make();

@@ -12,6 +12,8 @@
 #include "hdeform/engine/frame_slots.h"
 #include "hdeform/engine/geometry_exchange.h"
 #include "hdeform/engine/mesh_renderer.h"
+#include "mesh_picker.h"
+#include "selection.h"
 #include "render_support.h"
 
 namespace hdeform::cli {
@@ -110,6 +112,35 @@ nlohmann::json bench_rendering(const Mesh& mesh, const EditConstraints& constrai
   stop = true;
   solver.join();
 
+  // Picking as the editor does it: the BVH built once, refitted after a drag, and one ray per
+  // pixel of a 64×36 grid over the view (rays that miss the mesh included), then a brush of 3%
+  // of the diagonal around each hit.
+  const auto& snapshot = *exchange.acquire();
+  auto start = Clock::now();
+  MeshPicker picker(mesh.triangles, snapshot.position_normal);
+  const double pick_build_ms = since(start);
+  start = Clock::now();
+  picker.refit(snapshot.position_normal);
+  const double pick_refit_ms = since(start);
+  std::vector<double> pick_ms;
+  std::vector<double> brush_ms;
+  int hits = 0;
+  const float brush_radius = 0.03f * 2.0f * bounds.radius();
+  for (int row = 0; row < 36; ++row) {
+    for (int column = 0; column < 64; ++column) {
+      const auto ray = camera.ray((column + 0.5f) * static_cast<float>(shot.width) / 64.0f, (row + 0.5f) * static_cast<float>(shot.height) / 36.0f,
+                                  static_cast<float>(shot.width), static_cast<float>(shot.height));
+      start = Clock::now();
+      const auto hit = picker.pick(ray);
+      pick_ms.push_back(since(start));
+      if (!hit) continue;
+      ++hits;
+      start = Clock::now();
+      const auto brushed = vertices_in_ball(snapshot.position_normal, hit->point, brush_radius);
+      brush_ms.push_back(since(start));
+    }
+  }
+
   return {{"device", context.device_name()},
           {"width", shot.width},
           {"height", shot.height},
@@ -120,6 +151,12 @@ nlohmann::json bench_rendering(const Mesh& mesh, const EditConstraints& constrai
           {"frame_ms_while_dragging", to_json(dragging)},
           {"solver_updates_per_second_while_rendering", updates.load() / drag_seconds},
           {"publish_ms", to_json(summarize(publish_ms))},
+          {"pick", {{"bvh_build_ms", pick_build_ms},
+                    {"bvh_refit_ms", pick_refit_ms},
+                    {"rays", pick_ms.size()},
+                    {"hits", hits},
+                    {"pick_ms", to_json(summarize(pick_ms))},
+                    {"brush_ms", to_json(summarize(brush_ms))}}},
           {"validation_messages", context.validation_message_count()}};
 }
 

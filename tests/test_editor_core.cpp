@@ -102,7 +102,7 @@ class DocumentTest : public ::testing::Test {
     shape = make_shape(ShapeKind::Cactus, 24);
     cli::Session session;
     session.mesh = "shape:cactus:24";
-    document = std::make_unique<cli::Document>(session, shape.mesh, DeformerOptions{}, [this](const Eigen::MatrixXd&) { ++publications; });
+    document = std::make_unique<cli::Document>(session, shape.mesh, DeformerOptions{}, [this](const Eigen::MatrixXd&, std::uint64_t) { ++publications; });
   }
   Shape shape;
   std::unique_ptr<cli::Document> document;

@@ -1,0 +1,1424 @@
+#include "gui/editor_app.h"
+
+#define GLFW_INCLUDE_VULKAN
+#include <GLFW/glfw3.h>
+#include <imgui.h>
+#include <backends/imgui_impl_glfw.h>
+#include <backends/imgui_impl_vulkan.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <deque>
+#include <fstream>
+#include <iostream>
+#include <mutex>
+#include <numbers>
+#include <span>
+#include <sstream>
+#include <thread>
+
+#include "cli_support.h"
+#include "document.h"
+#include "gui/gizmo.h"
+#include "gui/recovery.h"
+#include "hdeform/atomic_file.h"
+#include "hdeform/constraint_io.h"
+#include "hdeform/engine/frame_slots.h"
+#include "hdeform/engine/image_io.h"
+#include "hdeform/engine/mesh_renderer.h"
+#include "hdeform/engine/palette.h"
+#include "hdeform/engine/swapchain_target.h"
+#include "hdeform/errors.h"
+#include "hdeform/mesh_io.h"
+#include "hdeform/shapes.h"
+#include "mesh_picker.h"
+#include "render_support.h"
+#include "selection.h"
+
+namespace hdeform::cli {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double seconds_since(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
+double milliseconds_between(Clock::time_point from, Clock::time_point to) { return std::chrono::duration<double, std::milli>(to - from).count(); }
+
+constexpr float kPanelWidth = 330.0f;
+constexpr double kRecoveryInterval = 3.0;  // seconds between periodic recovery writes
+constexpr double kProgressDelay = 0.5;     // show progress for work longer than this
+constexpr double kMaxLatchMs = 20.0;       // the longest a frame waits for a solve ("latch" pacing)
+
+enum class Tool { PaintRoi, PaintFixed, PaintHandle, Grab, Rotate, Scale, Twist };
+enum class TwistAxis { X, Y, Z, View };
+
+const char* tool_name(Tool tool) {
+  switch (tool) {
+    case Tool::PaintRoi: return "Paint region of interest";
+    case Tool::PaintFixed: return "Paint fixed";
+    case Tool::PaintHandle: return "Paint handle";
+    case Tool::Grab: return "Move handle";
+    case Tool::Rotate: return "Rotate handle";
+    case Tool::Scale: return "Scale handle";
+    case Tool::Twist: return "Twist handle";
+  }
+  return "";
+}
+
+bool is_paint_tool(Tool tool) { return tool == Tool::PaintRoi || tool == Tool::PaintFixed || tool == Tool::PaintHandle; }
+
+Layer layer_of(Tool tool) {
+  return tool == Tool::PaintRoi ? Layer::RegionOfInterest : tool == Tool::PaintFixed ? Layer::Fixed : Layer::Handle;
+}
+
+// Every shortcut, shown by the help overlay (F1).
+constexpr std::pair<const char*, const char*> kShortcuts[] = {
+    {"Right drag / Alt+left drag", "orbit"},
+    {"Middle drag / Shift+right drag", "pan"},
+    {"Wheel", "zoom"},
+    {"F", "fit the view to the mesh"},
+    {"1 / 2 / 3", "paint region of interest / fixed / handle"},
+    {"E", "erase instead of paint"},
+    {"L", "lasso instead of brush"},
+    {"[ / ]", "smaller / larger brush"},
+    {"C, then click", "paint the connected part under the cursor"},
+    {"I", "invert the current layer"},
+    {"= / -", "grow / shrink the current layer by one ring"},
+    {"N", "new handle"},
+    {"Tab", "next handle"},
+    {"Ctrl+Delete", "remove the active handle"},
+    {"G / R / S / T", "move / rotate / scale / twist the active handle"},
+    {"X / Y / Z / V", "twist axis x / y / z / view"},
+    {"0", "reset the handles to rest"},
+    {"A", "apply: the result becomes the rest shape"},
+    {"Ctrl+Z / Ctrl+Shift+Z", "undo / redo"},
+    {"Ctrl+O", "open a mesh (.obj) or a session (.json)"},
+    {"Ctrl+S / Ctrl+Shift+S", "save / save as (the mesh, and its session beside it)"},
+    {"W / H / K", "wireframe / harmonic field / vertex classes"},
+    {"F12", "screenshot of the view (without the panel)"},
+    {"F1", "this help"},
+    {"Ctrl+Q", "quit"},
+};
+
+std::string session_path_for(const std::string& obj_path) {
+  std::filesystem::path path(obj_path);
+  if (path.extension() == ".obj") path.replace_extension("");
+  return path.string() + ".session.json";
+}
+
+std::string percentile_text(std::vector<double> values) {
+  if (values.empty()) return "-";
+  const Summary summary = summarize(std::move(values));
+  char text[64];
+  std::snprintf(text, sizeof text, "%.1f ms (p95 %.1f)", summary.median, summary.p95);
+  return text;
+}
+
+class EditorApp {
+ public:
+  explicit EditorApp(const EditorOptions& options) : options_(options) {}
+  ~EditorApp() { shutdown(); }
+
+  int run() {
+    create_window();
+    create_renderer();
+    start_from_options();
+    while (!quit_) {
+      const bool busy = dragging_ || loading_ || benchmark_active_ || screenshot_requested_ ||
+                        (document_ && (document_->solver_state() == Document::SolverState::Building ||
+                                       document_->last_published_request() != shown_tag_));
+      if (busy) glfwPollEvents();
+      else glfwWaitEventsTimeout(0.25);
+      if (glfwWindowShouldClose(window_)) {
+        glfwSetWindowShouldClose(window_, GLFW_FALSE);
+        request_quit();
+      }
+      step();
+      wait_for_device();
+    }
+    if (recovery_) recovery_->discard();
+    return exit_code_;
+  }
+
+ private:
+  // ---- set-up --------------------------------------------------------------------------------
+
+  void create_window() {
+    if (!glfwInit()) throw engine::RenderError("cannot open a window (no display? set DISPLAY, or use hdeform render for pictures)");
+    glfw_started_ = true;
+    if (!glfwVulkanSupported()) throw engine::RenderError("the window system offers no Vulkan surface");
+    unsigned width = 1280, height = 800;
+    char separator = 0;
+    std::stringstream size(options_.size);
+    if (!(size >> width >> separator >> height) || separator != 'x' || width < 320 || height < 240 || width > 8192 || height > 8192) {
+      throw UsageError("--size must be WIDTHxHEIGHT, at least 320x240 (got '" + options_.size + "')");
+    }
+    glfwWindowHint(GLFW_CLIENT_API, GLFW_NO_API);
+    window_ = glfwCreateWindow(static_cast<int>(width), static_cast<int>(height), "hdeform", nullptr, nullptr);
+    if (window_ == nullptr) throw engine::RenderError("cannot create a window");
+    glfwSetWindowUserPointer(window_, this);
+    // Our callbacks first; ImGui's backend chains to them.
+    glfwSetCursorPosCallback(window_, [](GLFWwindow* window, double, double) {
+      static_cast<EditorApp*>(glfwGetWindowUserPointer(window))->last_input_ = Clock::now();
+    });
+    // Shortcuts are taken from the key events themselves, not from ImGui's per-frame key state, so
+    // that a press and release between two frames still counts.
+    glfwSetKeyCallback(window_, [](GLFWwindow* window, int key, int, int action, int mods) {
+      if (action == GLFW_PRESS) static_cast<EditorApp*>(glfwGetWindowUserPointer(window))->queued_keys_.push_back({key, mods});
+    });
+    glfwSetDropCallback(window_, [](GLFWwindow* window, int count, const char** paths) {
+      auto* app = static_cast<EditorApp*>(glfwGetWindowUserPointer(window));
+      if (count > 0) app->dropped_path_ = paths[0];
+    });
+  }
+
+  void create_renderer() {
+    engine::ContextOptions context_options;
+    context_options.device = options_.device;
+    context_options.validation = options_.validation;
+    uint32_t count = 0;
+    const char** extensions = glfwGetRequiredInstanceExtensions(&count);
+    context_options.instance_extensions.assign(extensions, extensions + count);
+    context_options.create_surface = [this](VkInstance instance) {
+      VkSurfaceKHR surface = VK_NULL_HANDLE;
+      engine::check(glfwCreateWindowSurface(instance, window_, nullptr, &surface), "glfwCreateWindowSurface");
+      return surface;
+    };
+    context_ = std::make_unique<engine::VulkanContext>(context_options);
+    const int samples = options_.samples > 0 ? options_.samples : context_->interactive_samples();
+    target_ = std::make_unique<engine::SwapchainTarget>(
+        *context_,
+        [this] {
+          int width = 0, height = 0;
+          glfwGetFramebufferSize(window_, &width, &height);
+          return VkExtent2D{static_cast<uint32_t>(width), static_cast<uint32_t>(height)};
+        },
+        samples, false, true);
+    slots_ = std::make_unique<engine::FrameSlots>(*context_, frames_in_flight());
+    slots_->enable_completion_times();
+    latch_solves_ = options_.pacing == "latch" || (options_.pacing == "auto" && context_->is_cpu_device());
+    renderer_ = std::make_unique<engine::MeshRenderer>(*context_, target_->render_pass(), target_->format(), slots_->count());
+
+    IMGUI_CHECKVERSION();
+    ImGui::CreateContext();
+    imgui_started_ = true;
+    ImGui::GetIO().IniFilename = nullptr;  // no imgui.ini beside the user's files
+    ImGui::StyleColorsDark();
+    ImGui_ImplGlfw_InitForVulkan(window_, true);
+    const VkDescriptorPoolSize pool_size{VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 16};
+    VkDescriptorPoolCreateInfo pool_info{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
+    pool_info.flags = VK_DESCRIPTOR_POOL_CREATE_FREE_DESCRIPTOR_SET_BIT;
+    pool_info.maxSets = 16;
+    pool_info.poolSizeCount = 1;
+    pool_info.pPoolSizes = &pool_size;
+    engine::check(vkCreateDescriptorPool(context_->device(), &pool_info, nullptr, &imgui_pool_), "vkCreateDescriptorPool");
+    ImGui_ImplVulkan_InitInfo info{};
+    info.Instance = context_->instance();
+    info.PhysicalDevice = context_->physical_device();
+    info.Device = context_->device();
+    info.QueueFamily = context_->queue_family();
+    info.Queue = context_->queue();
+    info.DescriptorPool = imgui_pool_;
+    info.MinImageCount = 2;
+    info.ImageCount = 3;  // ImGui cycles its buffers over this many frames: more than frames in flight
+    info.MSAASamples = target_->format().samples;
+    info.CheckVkResultFn = [](VkResult result) { engine::check(result, "Dear ImGui (Vulkan)"); };
+    ImGui_ImplVulkan_Init(&info, target_->render_pass());
+    imgui_vulkan_started_ = true;
+    context_->submit_and_wait([](VkCommandBuffer commands) { ImGui_ImplVulkan_CreateFontsTexture(commands); });
+    ImGui_ImplVulkan_DestroyFontUploadObjects();
+  }
+
+  // A frame's geometry is taken when the frame is prepared. With two frames in flight it is
+  // prepared while the previous one renders, so what it shows is a frame older than it could be;
+  // on a GPU that buys throughput, on a CPU device (where "the GPU" is these same cores) it only
+  // adds latency (measured on lavapipe with buddha-206k). HDEFORM_FRAMES_IN_FLIGHT overrides.
+  uint32_t frames_in_flight() const {
+    if (const char* value = std::getenv("HDEFORM_FRAMES_IN_FLIGHT")) return std::clamp(std::atoi(value), 1, 3);
+    return context_->is_cpu_device() ? 1 : engine::kFramesInFlight;
+  }
+
+  void shutdown() {
+    if (context_) vkDeviceWaitIdle(context_->device());
+    document_.reset();  // stops its threads before the publisher goes
+    if (load_thread_.joinable()) load_thread_.join();
+    publisher_.reset();
+    if (imgui_vulkan_started_) ImGui_ImplVulkan_Shutdown();
+    if (imgui_started_) {
+      ImGui_ImplGlfw_Shutdown();
+      ImGui::DestroyContext();
+    }
+    if (imgui_pool_ != VK_NULL_HANDLE) vkDestroyDescriptorPool(context_->device(), imgui_pool_, nullptr);
+    imgui_vulkan_started_ = imgui_started_ = false;
+    imgui_pool_ = VK_NULL_HANDLE;
+    renderer_.reset();
+    exchange_.reset();
+    slots_.reset();
+    target_.reset();
+    if (context_ && context_->validation_message_count() > 0) {
+      std::cerr << "hdeform: " << context_->validation_message_count() << " Vulkan validation message(s)\n";
+    }
+    if (context_ && context_->validation_enabled()) {
+      print_json_line({{"event", "exit"}, {"validation_messages", context_->validation_message_count()}});
+    }
+    context_.reset();
+    if (window_ != nullptr) glfwDestroyWindow(window_);
+    window_ = nullptr;
+    if (glfw_started_) glfwTerminate();
+    glfw_started_ = false;
+  }
+
+  // ---- documents ------------------------------------------------------------------------------
+
+  void start_from_options() {
+    recovery_ = std::make_unique<RecoveryWriter>(options_.recovery_file.empty() ? default_recovery_path() : options_.recovery_file);
+    if (std::filesystem::exists(recovery_->path())) {
+      if (options_.restore == "yes") return restore_recovery();
+      if (options_.restore == "ask") {
+        show_restore_prompt_ = true;
+        return;
+      }
+      std::error_code ignored;
+      std::filesystem::remove(recovery_->path(), ignored);
+    }
+    start_requested_document();
+  }
+
+  void restore_recovery() {
+    const auto path = recovery_->path();
+    start_load([path] {
+      Session session = read_session(path);
+      return std::pair{session, load_session_mesh(session)};
+    });
+  }
+
+  // The document the command line asked for.
+  void start_requested_document() {
+    const EditorOptions options = options_;
+    start_load([options] {
+      if (!options.session.empty()) {
+        Session session = read_session(options.session);
+        return std::pair{session, load_session_mesh(session)};
+      }
+      Session session;
+      session.mesh = options.mesh.empty() ? "shape:cactus" : options.mesh;
+      if (!session.mesh.starts_with("shape:")) session.mesh = std::filesystem::absolute(session.mesh).lexically_normal().string();
+      Mesh mesh = load_session_mesh(session);
+      if (options.mesh.empty() || (options.handles.empty() && session.mesh.starts_with("shape:"))) {
+        // A built-in shape starts with its demo's source and sink painted, ready to drag.
+        const auto spec = session.mesh.substr(6);
+        const auto shape = make_shape(*parse_shape(spec.substr(0, spec.find(':'))),
+                                      spec.find(':') == std::string::npos ? kDefaultShapeResolution : std::stoi(spec.substr(spec.find(':') + 1)));
+        session.current.fixed = shape.demo_constraints.fixed;
+        session.current.handles.push_back({shape.demo_constraints.handles[0], pose_for(shape.demo_constraints.handles[0], mesh, {})});
+      }
+      if (!options.fixed.empty()) session.current.fixed = read_vertex_indices(options.fixed, mesh.vertex_count());
+      if (!options.roi.empty()) session.current.region_of_interest = read_vertex_indices(options.roi, mesh.vertex_count());
+      for (std::size_t h = 0; h < options.handles.size(); ++h) {
+        auto vertices = read_vertex_indices(options.handles[h], mesh.vertex_count());
+        if (vertices.empty()) throw InputError(options.handles[h] + ": no vertex indices (a handle needs at least one vertex)");
+        std::optional<HandleTransform> target;
+        if (h < options.transforms.size()) target = read_handle_transform(options.transforms[h]);
+        session.current.handles.push_back({vertices, pose_for(vertices, mesh, target)});
+      }
+      return std::pair{session, mesh};
+    });
+  }
+
+  // A pose about the handle's centroid; with `target`, the pose that reaches it (rotation and
+  // uniform scale; a 3×4 matrix's stretch is dropped, as the gizmo has none).
+  static HandleTransform pose_for(const std::vector<int>& vertices, const Mesh& mesh, const std::optional<HandleTransform>& target) {
+    Eigen::Vector3d pivot = Eigen::Vector3d::Zero();
+    for (const int v : vertices) pivot += mesh.positions.row(v).transpose();
+    pivot /= static_cast<double>(vertices.size());
+    if (!target) return HandleTransform::about_pivot(Eigen::Vector3d::UnitZ(), pivot, 0.0);
+    const Eigen::Vector3d shift = target->apply(pivot) - pivot;
+    return HandleTransform::about_pivot(target->axis, pivot, target->angle, target->scale, shift);
+  }
+
+  template <class Load>
+  void start_load(Load load) {
+    if (load_thread_.joinable()) load_thread_.join();
+    loading_ = true;
+    load_started_ = Clock::now();
+    load_error_.clear();
+    loaded_.reset();
+    load_thread_ = std::thread([this, load] {
+      try {
+        auto [session, mesh] = load();
+        auto loaded = std::make_unique<Loaded>();
+        loaded->session = std::move(session);
+        loaded->mesh = std::move(mesh);
+        // Replaying applied stages and the checks run here, off the frame loop; the publisher is
+        // attached when the document is installed.
+        loaded->document = std::make_unique<Document>(loaded->session, loaded->mesh, DeformerOptions{}, Document::Publish{});
+        std::lock_guard lock(load_mutex_);
+        loaded_ = std::move(loaded);
+      } catch (const std::exception& error) {
+        std::lock_guard lock(load_mutex_);
+        load_error_ = error.what();
+      }
+      load_done_ = true;
+      glfwPostEmptyEvent();
+    });
+  }
+
+  struct Loaded {
+    Session session;
+    Mesh mesh;
+    std::unique_ptr<Document> document;
+  };
+
+  void finish_load() {
+    if (!load_done_) return;
+    load_thread_.join();
+    load_done_ = false;
+    loading_ = false;
+    std::lock_guard lock(load_mutex_);
+    if (!load_error_.empty()) {
+      error_message_ = load_error_;
+      print_json_line({{"event", "error"}, {"message", load_error_}});
+      if (!document_ && (options_.benchmark_drag_seconds > 0.0)) {
+        std::cerr << "hdeform: error: " << load_error_ << '\n';
+        exit_code_ = 1;
+        quit_ = true;
+      }
+      return;
+    }
+    install(std::move(loaded_));
+  }
+
+  void install(std::unique_ptr<Loaded> loaded) {
+    vkDeviceWaitIdle(context_->device());
+    document_.reset();  // its pipeline stops before its publisher goes
+    publisher_.reset();
+    const Mesh& rest = loaded->document->rest();
+    exchange_ = std::make_unique<engine::GeometryExchange>(static_cast<std::size_t>(rest.vertex_count()));
+    publisher_ = std::make_unique<engine::GeometryPublisher>(*exchange_, rest.triangles);
+    loaded->document->set_publish([this](const Eigen::MatrixXd& positions, std::uint64_t request) {
+      publisher_->publish(positions, request);
+      glfwPostEmptyEvent();
+    });
+    document_ = std::move(loaded->document);
+    publisher_->publish(document_->rest().positions, 0);
+    mesh_name_ = loaded->session.mesh;
+    const auto bounds = engine::Bounds::of(document_->rest().positions);
+    renderer_->set_mesh(document_->rest().triangles, *exchange_, bounds, up_axis());
+    picker_.reset();
+    adjust_camera(true);
+    brush_radius_ = 0.03f * bounds.radius() * 2.0f;
+    view_dirty_ = true;
+    shown_tag_ = 0;
+    if (options_.output.empty() && !mesh_name_.starts_with("shape:")) {
+      std::filesystem::path output(mesh_name_);
+      output_path_ = (output.parent_path() / (output.stem().string() + "-edited.obj")).string();
+    } else if (options_.output.empty()) {
+      output_path_ = (std::filesystem::current_path() / (mesh_name_.substr(6, mesh_name_.find(':', 6) - 6) + "-edited.obj")).string();
+    } else {
+      output_path_ = options_.output;
+    }
+    std::snprintf(path_buffer_, sizeof path_buffer_, "%s", output_path_.c_str());
+    glfwSetWindowTitle(window_, ("hdeform — " + mesh_name_).c_str());
+    status_ = "Opened " + mesh_name_;
+    print_json_line({{"event", "opened"}, {"mesh", mesh_name_}, {"vertices", rest.vertex_count()}, {"triangles", rest.triangle_count()}});
+    document_->request_update();
+    post_recovery();
+  }
+
+  engine::UpAxis up_axis() const { return options_.up == "y" ? engine::UpAxis::Y : engine::UpAxis::Z; }
+
+  void adjust_camera(bool reset_angles) {
+    if (!document_) return;
+    const auto extent = target_->extent();
+    const float aspect = extent.height > 0 ? static_cast<float>(extent.width) / static_cast<float>(extent.height) : 1.0f;
+    const auto bounds = engine::Bounds::of(document_->rest().positions);
+    if (reset_angles) camera_ = engine::Camera::three_quarter_front(bounds, up_axis(), aspect);
+    else camera_.fit(bounds, aspect);
+  }
+
+  void open_path(const std::string& path) {
+    if (path.ends_with(".json")) {
+      start_load([path] {
+        Session session = read_session(path);
+        return std::pair{session, load_session_mesh(session)};
+      });
+      return;
+    }
+    start_load([path] {
+      Session session;
+      session.mesh = std::filesystem::absolute(path).lexically_normal().string();
+      return std::pair{session, load_session_mesh(session)};
+    });
+  }
+
+  // ---- the frame --------------------------------------------------------------------------------
+
+  // Until the device can take the next frame, input keeps flowing: a handle drag changes the
+  // pose the moment the move arrives.
+  //
+  // Solve pacing. "free": each input posts its solve at once and every frame shows whatever
+  // result is newest; no frame ever waits. "latch", the default on a CPU device: there the
+  // rasterizer and the solver share the same cores, and solving while a frame renders slows both
+  // (buddha-206k on lavapipe, 2 cores: 23 fps and 82 ms from input to screen). Instead the inputs
+  // taken while a frame renders are solved the moment the device is free, and the next frame
+  // waits for that result for at most a short latch (twice the recent update time + 2 ms, never
+  // more than 20 ms); if it has not landed by then, the frame shows the previous result (28 fps,
+  // 56 ms). The solve still runs on the pipeline's thread, never on this one.
+  void wait_for_device() {
+    if (!document_) return;
+    while (!quit_ && !slots_->next_ready(std::chrono::milliseconds(1))) take_input_while_waiting();
+    if (!latch_solves_ || unposted_events_.empty()) return;
+    const std::uint64_t request = post_pending_solve();
+    const double latch_ms = std::min(2.0 * recent_median(update_times_, 10.0) + 2.0, kMaxLatchMs);
+    const auto latch_end = Clock::now() + std::chrono::microseconds(static_cast<long>(latch_ms * 1000.0));
+    while (!quit_ && request > 0 && document_->last_published_request() < request && Clock::now() < latch_end) {
+      glfwWaitEventsTimeout(0.001);
+      take_input_while_waiting();
+    }
+  }
+
+  void take_input_while_waiting() {
+    glfwPollEvents();
+    if (dragging_ && !is_paint_tool(tool_)) {
+      double x = 0.0, y = 0.0;
+      glfwGetCursorPos(window_, &x, &y);
+      continue_handle_drag(ImVec2(static_cast<float>(x), static_cast<float>(y)), last_input_);
+    }
+    if (benchmark_active_) take_benchmark_input();
+  }
+
+  // A pose changed by input: posted now ("free"), or when the device is next free ("latch").
+  void note_pose_input(Clock::time_point event_time) { note_pose_input(std::span(&event_time, 1)); }
+  void note_pose_input(std::span<const Clock::time_point> events) {
+    unposted_events_.insert(unposted_events_.end(), events.begin(), events.end());
+    if (!latch_solves_) post_pending_solve();
+  }
+
+  // Posts the solve of the current poses for the inputs not posted yet; returns its request (0: none).
+  std::uint64_t post_pending_solve() {
+    if (unposted_events_.empty()) return 0;
+    const std::uint64_t request = post_request(unposted_events_);
+    unposted_events_.clear();
+    return request;
+  }
+
+  static double recent_median(const std::deque<double>& values, double fallback) {
+    if (values.empty()) return fallback;
+    std::vector<double> recent(values.end() - static_cast<std::ptrdiff_t>(std::min<std::size_t>(values.size(), 20)), values.end());
+    std::nth_element(recent.begin(), recent.begin() + static_cast<std::ptrdiff_t>(recent.size() / 2), recent.end());
+    return recent[recent.size() / 2];
+  }
+
+  void step() {
+    frame_keys_.swap(queued_keys_);
+    queued_keys_.clear();
+    finish_load();
+    if (!dropped_path_.empty()) {
+      open_path(dropped_path_);
+      dropped_path_.clear();
+    }
+    if (document_) {
+      const auto before = document_->solver_state();
+      document_->poll();
+      if (document_->solver_state() != before) {
+        view_dirty_ = true;
+        announce_solver_state();
+      }
+      if (document_->solver_state() == Document::SolverState::Building && build_started_ == Clock::time_point{}) build_started_ = Clock::now();
+      if (document_->solver_state() != Document::SolverState::Building) build_started_ = {};
+    }
+    if (benchmark_active_ || (options_.benchmark_drag_seconds > 0.0 && !benchmark_done_)) benchmark_step();
+
+    ImGui_ImplVulkan_NewFrame();
+    ImGui_ImplGlfw_NewFrame();
+    ImGui::NewFrame();
+    draw_panel();
+    draw_dialogs();
+    handle_keys();
+    handle_mouse();
+    draw_overlays();
+    ImGui::Render();
+    sync_view();
+    render(ImGui::GetDrawData());
+    if (recovery_dirty_ && seconds_since(last_recovery_) > kRecoveryInterval) post_recovery();
+  }
+
+  // On stdout, for scripts and tests that drive the editor.
+  void announce_solver_state() {
+    switch (document_->solver_state()) {
+      case Document::SolverState::Ready:
+        print_json_line({{"event", "solver"}, {"state", "ready"}, {"factor_ms", document_->setup_timings()->factor_ms}});
+        break;
+      case Document::SolverState::Failed:
+        print_json_line({{"event", "solver"}, {"state", "failed"}, {"message", document_->solver_message()}});
+        break;
+      case Document::SolverState::NoHandle: print_json_line({{"event", "solver"}, {"state", "no handle"}}); break;
+      case Document::SolverState::Building: break;
+    }
+  }
+
+  void sync_view() {
+    if (!document_ || !view_dirty_) return;
+    view_dirty_ = false;
+    const auto n = static_cast<int>(document_->vertex_count());
+    std::vector<uint32_t> classes(static_cast<std::size_t>(n), HD_CLASS_FREE);
+    for (int v = 0; v < n; ++v) {
+      const int label = document_->label(v);
+      if (label >= 0) classes[static_cast<std::size_t>(v)] = engine::handle_class(static_cast<std::size_t>(label));
+      else if (label == Document::kFixed) classes[static_cast<std::size_t>(v)] = engine::fixed_class();
+      else if (document_->has_region_of_interest() && !document_->in_region_of_interest(v)) classes[static_cast<std::size_t>(v)] = engine::outside_class();
+    }
+    renderer_->set_classes(classes);
+    if (const Eigen::VectorXd* field = document_->field()) {
+      const Eigen::VectorXf values = field->cast<float>();
+      renderer_->set_field({values.data(), static_cast<std::size_t>(values.size())});
+    } else {
+      renderer_->set_field({});
+    }
+  }
+
+  void render(ImDrawData* draw_data) {
+    if (document_ && document_->last_update_ms() != last_update_seen_) {
+      last_update_seen_ = document_->last_update_ms();
+      update_times_.push_back(last_update_seen_);
+      if (update_times_.size() > 100) update_times_.pop_front();
+    }
+    engine::FrameSlots::Slot& slot = slots_->begin();
+    const auto now = Clock::now();
+    note_finished_frames();
+    uint32_t image = 0;
+    if (!target_->acquire(slot.image_available, image)) return;  // minimised or rebuilt: draw next time
+    const VkExtent2D extent = target_->extent();
+    renderer_->prepare(slot.index, camera_, settings_, extent);
+    shown_tag_ = renderer_->drawn_geometry_tag();
+    target_->begin(slot.commands, image);
+    renderer_->record(slot.commands, slot.index, extent);
+    const bool screenshot = screenshot_requested_;
+    if (!screenshot) ImGui_ImplVulkan_RenderDrawData(draw_data, slot.commands);
+    target_->end(slot.commands, image, screenshot);
+    const std::uint64_t frame = slots_->submit(slot, slot.image_available, target_->render_finished(image));
+    frame_tags_.emplace_back(frame, shown_tag_);
+    if (frame_tags_.size() > 64) frame_tags_.pop_front();
+    target_->present(image);
+    frame_times_.push_back(now);
+    while (!frame_times_.empty() && seconds_since(frame_times_.front()) > 1.0) frame_times_.pop_front();
+    if (screenshot) {
+      slots_->wait_all();
+      write_screenshot(target_->read_last_image());
+      screenshot_requested_ = false;
+    }
+  }
+
+  // Frames the device finished (timed by a thread that waits on a timeline semaphore): the
+  // frame cadence, and for the first frame that shows a request's result, the latency from the
+  // input event that caused it.
+  void note_finished_frames() {
+    for (const auto& completion : slots_->take_completions()) {
+      if (frame_previous_.time_since_epoch().count() != 0) {
+        frame_intervals_.push_back(milliseconds_between(frame_previous_, completion.time));
+        if (frame_intervals_.size() > 600) frame_intervals_.pop_front();
+      }
+      frame_previous_ = completion.time;
+      std::uint64_t tag = 0;
+      for (const auto& [frame, frame_tag] : frame_tags_) {
+        if (frame == completion.frame) tag = frame_tag;
+      }
+      // Every input answered by this frame's solve or an earlier one is now on screen.
+      while (!pending_requests_.empty() && pending_requests_.front().first <= tag) {
+        latencies_.push_back(milliseconds_between(pending_requests_.front().second, completion.time));
+        if (latencies_.size() > 4000) latencies_.pop_front();
+        pending_requests_.pop_front();
+      }
+    }
+  }
+
+  void write_screenshot(const engine::Pixels& pixels) {
+    const auto path = std::filesystem::path(options_.screenshot_dir) / ("screenshot-" + std::to_string(++screenshots_) + ".png");
+    try {
+      engine::write_png(path, pixels);
+      status_ = "Screenshot " + path.string();
+      print_json_line({{"event", "screenshot"}, {"path", path.string()}});
+    } catch (const std::exception& error) {
+      error_message_ = error.what();
+    }
+  }
+
+  // ---- the panel ----------------------------------------------------------------------------------
+
+  void draw_panel() {
+    ImGui::SetNextWindowPos(ImVec2(0, 0));
+    ImGui::SetNextWindowSize(ImVec2(kPanelWidth, ImGui::GetIO().DisplaySize.y));
+    ImGui::Begin("hdeform", nullptr, ImGuiWindowFlags_NoMove | ImGuiWindowFlags_NoResize | ImGuiWindowFlags_NoCollapse);
+    ImGui::TextWrapped("%s", mesh_name_.empty() ? "(loading)" : mesh_name_.c_str());
+    if (document_) ImGui::Text("%ld vertices, %ld triangles", static_cast<long>(document_->vertex_count()), static_cast<long>(document_->rest().triangle_count()));
+    if (ImGui::Button("Open…")) open_dialog_ = true;
+    ImGui::SameLine();
+    if (ImGui::Button("Save")) save(output_path_);
+    ImGui::SameLine();
+    if (ImGui::Button("Save as…")) save_dialog_ = true;
+    ImGui::SameLine();
+    if (ImGui::Button("Help")) show_help_ = !show_help_;
+    if (!document_) {
+      ImGui::End();
+      return;
+    }
+
+    ImGui::Separator();
+    ImGui::TextDisabled("Tool");
+    for (const Tool tool : {Tool::PaintRoi, Tool::PaintFixed, Tool::PaintHandle, Tool::Grab, Tool::Rotate, Tool::Scale, Tool::Twist}) {
+      if (ImGui::RadioButton(tool_name(tool), tool_ == tool)) tool_ = tool;
+    }
+    ImGui::Checkbox("Erase (E)", &erase_);
+    ImGui::SameLine();
+    ImGui::Checkbox("Lasso (L)", &lasso_);
+    ImGui::SliderFloat("Brush", &brush_radius_, 0.001f * scene_size(), 0.2f * scene_size(), "%.4f");
+    if (ImGui::Button("Invert")) layer_action([this](Layer layer) { document_->invert(layer); });
+    ImGui::SameLine();
+    if (ImGui::Button("Grow")) layer_action([this](Layer layer) { document_->grow(layer); });
+    ImGui::SameLine();
+    if (ImGui::Button("Shrink")) layer_action([this](Layer layer) { document_->shrink(layer); });
+    ImGui::SameLine();
+    if (ImGui::Button("Clear")) layer_action([this](Layer layer) { document_->clear(layer); });
+    if (ImGui::Button("Connected (C)")) connected_armed_ = true;
+
+    ImGui::Separator();
+    ImGui::TextDisabled("Handles");
+    for (int h = 0; h < static_cast<int>(document_->handle_count()); ++h) {
+      const auto& color = engine::class_colors()[static_cast<std::size_t>(HD_FIRST_HANDLE_COLOR + h % HD_HANDLE_COLORS)];
+      ImGui::ColorButton(("##handle" + std::to_string(h)).c_str(), ImVec4(color.x(), color.y(), color.z(), 1.0f), ImGuiColorEditFlags_NoTooltip,
+                         ImVec2(14, 14));
+      ImGui::SameLine();
+      const std::string label = "Handle " + std::to_string(h + 1) + " (" + std::to_string(document_->handle_size(h)) + " vertices)";
+      if (ImGui::Selectable(label.c_str(), document_->active_handle() == h)) document_->set_active_handle(h);
+    }
+    if (ImGui::Button("New handle (N)")) {
+      document_->add_handle();
+      tool_ = Tool::PaintHandle;
+    }
+    ImGui::SameLine();
+    if (ImGui::Button("Remove") && document_->handle_count() > 0) finish_action([this] { document_->remove_handle(document_->active_handle()); });
+    draw_pose_editor();
+
+    ImGui::Separator();
+    ImGui::TextDisabled("Edit");
+    if (ImGui::Button("Undo")) undo();
+    ImGui::SameLine();
+    if (ImGui::Button("Redo")) redo();
+    ImGui::SameLine();
+    if (ImGui::Button("Reset (0)")) finish_action([this] { document_->reset_poses(); });
+    ImGui::SameLine();
+    if (ImGui::Button("Apply (A)")) apply();
+
+    ImGui::Separator();
+    ImGui::TextDisabled("View");
+    if (ImGui::Checkbox("Field (H)", &settings_.show_field)) view_dirty_ = true;
+    ImGui::SameLine();
+    ImGui::Checkbox("Classes (K)", &settings_.show_classes);
+    ImGui::SameLine();
+    ImGui::Checkbox("Wireframe (W)", &settings_.wireframe);
+    ImGui::Checkbox("Flat", &settings_.flat_shading);
+    ImGui::SameLine();
+    ImGui::Checkbox("Ground", &settings_.ground);
+    ImGui::SameLine();
+    ImGui::Checkbox("Legend", &settings_.legend);
+    ImGui::SliderFloat("Isolines", &settings_.isoline_step, 0.0f, 0.5f, "%.3f");
+    if (ImGui::Button("Fit (F)")) adjust_camera(false);
+
+    ImGui::Separator();
+    ImGui::TextDisabled("Solver");
+    const char* backends[] = {"eigen", "cholmod"};
+    int backend = document_->options().backend == SolverBackend::Eigen ? 0 : 1;
+    if (ImGui::Combo("Backend", &backend, backends, backend_available(SolverBackend::Cholmod) ? 2 : 1)) {
+      DeformerOptions solver_options = document_->options();
+      solver_options.backend = backend == 0 ? SolverBackend::Eigen : SolverBackend::Cholmod;
+      document_->set_options(solver_options);
+    }
+    switch (document_->solver_state()) {
+      case Document::SolverState::NoHandle: ImGui::TextWrapped("Paint a handle (3) to deform."); break;
+      case Document::SolverState::Building: ImGui::TextWrapped("%s…", document_->solver_message().c_str()); break;
+      case Document::SolverState::Failed: ImGui::TextColored(ImVec4(1, 0.4f, 0.4f, 1), "%s", document_->solver_message().c_str()); break;
+      case Document::SolverState::Ready: break;
+    }
+    ImGui::Checkbox("Solve before each frame", &latch_solves_);
+    if (ImGui::IsItemHovered()) {
+      ImGui::SetTooltip("On: a frame waits up to %.0f ms for the solve of the newest input (best on a CPU device).\n"
+                        "Off: frames never wait; each shows the newest finished solve.", kMaxLatchMs);
+    }
+    if (const DeformerTimings* timings = document_->setup_timings()) ImGui::Text("Factorization: %.1f ms", timings->factor_ms);
+    ImGui::Text("Last update: %.2f ms", document_->last_update_ms());
+    ImGui::Text("Frames: %zu per second", frame_times_.size());
+    ImGui::Text("Frame: %s", percentile_text({frame_intervals_.begin(), frame_intervals_.end()}).c_str());
+    ImGui::Text("Input to screen: %s", percentile_text({latencies_.begin(), latencies_.end()}).c_str());
+    ImGui::Separator();
+    ImGui::TextWrapped("%s", status_.c_str());
+    if (!error_message_.empty()) ImGui::TextColored(ImVec4(1, 0.4f, 0.4f, 1), "%s", error_message_.c_str());
+    ImGui::End();
+  }
+
+  void draw_pose_editor() {
+    const int h = document_->active_handle();
+    if (document_->handle_count() == 0 || document_->handle_size(h) == 0) return;
+    const HandleTransform& pose = document_->pose(h);
+    float shift[3] = {static_cast<float>(pose.shift.x()), static_cast<float>(pose.shift.y()), static_cast<float>(pose.shift.z())};
+    float axis[3] = {static_cast<float>(pose.axis.x()), static_cast<float>(pose.axis.y()), static_cast<float>(pose.axis.z())};
+    float degrees = static_cast<float>(pose.angle * 180.0 / std::numbers::pi);
+    float scale = static_cast<float>(pose.scale);
+    bool changed = false;
+    const float step = 0.002f * scene_size();
+    changed |= ImGui::DragFloat3("Move", shift, step);
+    changed |= ImGui::DragFloat3("Axis", axis, 0.01f, -1.0f, 1.0f);
+    changed |= ImGui::DragFloat("Angle°", &degrees, 0.5f);  // any number of turns
+    changed |= ImGui::DragFloat("Scale", &scale, 0.005f, 0.05f, 20.0f);
+    if (changed) {
+      Eigen::Vector3d new_axis(axis[0], axis[1], axis[2]);
+      if (new_axis.norm() < 1e-6) new_axis = pose.axis;
+      document_->set_pose(h, new_axis.normalized(), degrees * std::numbers::pi / 180.0, std::max(scale, 0.05f),
+                          Eigen::Vector3d(shift[0], shift[1], shift[2]));
+      note_pose_input(Clock::now());
+    }
+    if (ImGui::IsItemDeactivatedAfterEdit() || (changed && !ImGui::IsAnyItemActive())) commit_action();
+  }
+
+  void draw_dialogs() {
+    if (show_help_) {
+      ImGui::SetNextWindowPos(ImVec2(kPanelWidth + 20, 20), ImGuiCond_Appearing);
+      ImGui::Begin("Shortcuts (F1)", &show_help_, ImGuiWindowFlags_AlwaysAutoResize);
+      for (const auto& [keys, action] : kShortcuts) {
+        ImGui::TextUnformatted(keys);
+        ImGui::SameLine(230);
+        ImGui::TextUnformatted(action);
+      }
+      ImGui::End();
+    }
+    const bool busy = loading_ || (document_ && document_->solver_state() == Document::SolverState::Building);
+    const double busy_for = loading_ ? seconds_since(load_started_) : (build_started_ != Clock::time_point{} ? seconds_since(build_started_) : 0.0);
+    if (busy && busy_for > kProgressDelay) {
+      const ImVec2 size = ImGui::GetIO().DisplaySize;
+      ImGui::SetNextWindowPos(ImVec2(size.x * 0.5f + kPanelWidth * 0.5f, size.y * 0.5f), ImGuiCond_Always, ImVec2(0.5f, 0.5f));
+      ImGui::Begin("Working", nullptr, ImGuiWindowFlags_NoDecoration | ImGuiWindowFlags_AlwaysAutoResize | ImGuiWindowFlags_NoInputs);
+      const char* spinner = "|/-\\";
+      const std::string what = loading_ ? "Loading " + (mesh_name_.empty() ? std::string("the mesh") : mesh_name_) : document_->solver_message();
+      ImGui::Text("%c %s  (%.1f s)", spinner[static_cast<int>(busy_for * 8) % 4], what.c_str(), busy_for);
+      ImGui::End();
+    }
+    if (show_restore_prompt_ && !ImGui::IsPopupOpen("Restore")) {
+      ImGui::OpenPopup("Restore");
+      print_json_line({{"event", "restore prompt"}, {"recovery", recovery_->path().string()}});
+    }
+    if (ImGui::BeginPopupModal("Restore", nullptr, ImGuiWindowFlags_AlwaysAutoResize)) {
+      ImGui::Text("The last session did not end cleanly.");
+      ImGui::Text("Restore it from %s?", recovery_->path().string().c_str());
+      if (ImGui::Button("Restore (Enter)") || (pressed(GLFW_KEY_ENTER) || pressed(GLFW_KEY_KP_ENTER))) {
+        show_restore_prompt_ = false;
+        ImGui::CloseCurrentPopup();
+        restore_recovery();
+      }
+      ImGui::SameLine();
+      if (ImGui::Button("Discard (Esc)") || pressed(GLFW_KEY_ESCAPE)) {
+        show_restore_prompt_ = false;
+        ImGui::CloseCurrentPopup();
+        std::error_code ignored;
+        std::filesystem::remove(recovery_->path(), ignored);
+        start_requested_document();
+      }
+      ImGui::EndPopup();
+    }
+    path_dialog("Open", open_dialog_, [this](const std::string& path) { open_path(path); });
+    path_dialog("Save as", save_dialog_, [this](const std::string& path) {
+      if (save(path)) output_path_ = path;
+    });
+    if (quit_dialog_) ImGui::OpenPopup("Quit");
+    if (ImGui::BeginPopupModal("Quit", nullptr, ImGuiWindowFlags_AlwaysAutoResize)) {
+      ImGui::Text("Quit without saving the changes?");
+      if (ImGui::Button("Quit")) quit_ = true;
+      ImGui::SameLine();
+      if (ImGui::Button("Cancel") || pressed(GLFW_KEY_ESCAPE)) {
+        quit_dialog_ = false;
+        ImGui::CloseCurrentPopup();
+      }
+      ImGui::EndPopup();
+    }
+  }
+
+  template <class Act>
+  void path_dialog(const char* title, bool& open, Act act) {
+    if (open) ImGui::OpenPopup(title);
+    if (!ImGui::BeginPopupModal(title, nullptr, ImGuiWindowFlags_AlwaysAutoResize)) return;
+    ImGui::SetNextItemWidth(520);
+    const bool entered = ImGui::InputText("Path", path_buffer_, sizeof path_buffer_, ImGuiInputTextFlags_EnterReturnsTrue);
+    if (ImGui::Button(title) || entered) {
+      open = false;
+      ImGui::CloseCurrentPopup();
+      act(std::string(path_buffer_));
+    }
+    ImGui::SameLine();
+    if (ImGui::Button("Cancel") || pressed(GLFW_KEY_ESCAPE)) {
+      open = false;
+      ImGui::CloseCurrentPopup();
+    }
+    ImGui::EndPopup();
+  }
+
+  // ---- actions ------------------------------------------------------------------------------------
+
+  // A finished action: one undo step, the view refreshed, the recovery file written.
+  void commit_action() {
+    if (!document_) return;
+    document_->commit();
+    view_dirty_ = true;
+    post_recovery();
+  }
+
+  template <class Act>
+  void finish_action(Act act) {
+    if (!document_) return;
+    act();
+    post_request(Clock::now());
+    commit_action();
+  }
+
+  template <class Act>
+  void layer_action(Act act) {
+    if (!document_ || !is_paint_tool(tool_)) return;
+    finish_action([&] { act(layer_of(tool_)); });
+  }
+
+  void undo() {
+    if (document_ && document_->undo()) after_history_step("Undone");
+  }
+  void redo() {
+    if (document_ && document_->redo()) after_history_step("Redone");
+  }
+  void after_history_step(const char* what) {
+    view_dirty_ = true;
+    publish_rest_if_needed();
+    post_request(Clock::now());
+    post_recovery();
+    status_ = what;
+  }
+
+  void apply() {
+    if (!document_ || document_->handle_count() == 0) return;
+    try {
+      document_->apply();
+      commit_action();
+      publish_rest_if_needed();
+      status_ = "Applied: the result is the new rest shape";
+    } catch (const std::exception& error) {
+      error_message_ = error.what();
+    }
+  }
+
+  // Without a solver (no handle) nothing publishes: show the rest shape.
+  void publish_rest_if_needed() {
+    if (document_->solver_state() == Document::SolverState::NoHandle || document_->handle_count() == 0) publisher_->publish(document_->rest().positions, 0);
+  }
+
+  // Posts the current poses, answering the inputs that led to them (their times, for latency).
+  std::uint64_t post_request(std::span<const Clock::time_point> events) {
+    if (!document_) return 0;
+    const std::uint64_t request = document_->request_update();
+    if (request == 0) return 0;
+    for (const auto& event : events) pending_requests_.emplace_back(request, event);
+    while (pending_requests_.size() > 4000) pending_requests_.pop_front();
+    return request;
+  }
+  std::uint64_t post_request(Clock::time_point event_time) { return post_request(std::span(&event_time, 1)); }
+
+  void post_recovery() {
+    if (!document_ || !recovery_) return;
+    recovery_->post(document_->session());
+    last_recovery_ = Clock::now();
+    recovery_dirty_ = false;
+  }
+
+  bool save(const std::string& path) {
+    if (!document_ || path.empty()) return false;
+    try {
+      const Eigen::MatrixXd result = document_->result();
+      write_obj(path, Mesh{result, document_->rest().triangles});
+      write_session(session_path_for(path), document_->session());
+      document_->mark_saved();
+      status_ = "Saved " + path + " and " + session_path_for(path);
+      error_message_.clear();
+      print_json_line({{"event", "saved"}, {"obj", path}, {"session", session_path_for(path)}});
+      return true;
+    } catch (const std::exception& error) {
+      error_message_ = error.what();
+      return false;
+    }
+  }
+
+  void request_quit() {
+    if (document_ && document_->modified() && options_.benchmark_drag_seconds <= 0.0) quit_dialog_ = true;
+    else quit_ = true;
+  }
+
+  float scene_size() const { return document_ ? 2.0f * engine::Bounds::of(document_->rest().positions).radius() : 1.0f; }
+
+  // ---- input ------------------------------------------------------------------------------------------
+
+  void handle_keys() {
+    const ImGuiIO& io = ImGui::GetIO();
+    if (io.WantCaptureKeyboard) return;
+    constexpr int kCtrl = GLFW_MOD_CONTROL;
+    if (pressed(GLFW_KEY_Z, kCtrl)) undo();
+    if (pressed(GLFW_KEY_Z, kCtrl | GLFW_MOD_SHIFT) || pressed(GLFW_KEY_Y, kCtrl)) redo();
+    if (pressed(GLFW_KEY_S, kCtrl)) save(output_path_);
+    if (pressed(GLFW_KEY_S, kCtrl | GLFW_MOD_SHIFT)) save_dialog_ = true;
+    if (pressed(GLFW_KEY_O, kCtrl)) open_dialog_ = true;
+    if (pressed(GLFW_KEY_Q, kCtrl)) request_quit();
+    if (pressed(GLFW_KEY_DELETE, kCtrl) && document_ && document_->handle_count() > 0) {
+      finish_action([this] { document_->remove_handle(document_->active_handle()); });
+    }
+    if (pressed(GLFW_KEY_F1)) show_help_ = !show_help_;
+    if (pressed(GLFW_KEY_F12)) screenshot_requested_ = true;
+    if (!document_) return;
+    if (pressed(GLFW_KEY_F)) adjust_camera(false);
+    if (pressed(GLFW_KEY_1)) tool_ = Tool::PaintRoi;
+    if (pressed(GLFW_KEY_2)) tool_ = Tool::PaintFixed;
+    if (pressed(GLFW_KEY_3)) tool_ = Tool::PaintHandle;
+    if (pressed(GLFW_KEY_G)) tool_ = Tool::Grab;
+    if (pressed(GLFW_KEY_R)) tool_ = Tool::Rotate;
+    if (pressed(GLFW_KEY_S)) tool_ = Tool::Scale;
+    if (pressed(GLFW_KEY_T)) tool_ = Tool::Twist;
+    if (pressed(GLFW_KEY_X)) twist_axis_ = TwistAxis::X;
+    if (pressed(GLFW_KEY_Y)) twist_axis_ = TwistAxis::Y;
+    if (pressed(GLFW_KEY_Z)) twist_axis_ = TwistAxis::Z;
+    if (pressed(GLFW_KEY_E)) erase_ = !erase_;
+    if (pressed(GLFW_KEY_L)) lasso_ = !lasso_;
+    if (pressed(GLFW_KEY_C)) connected_armed_ = true;
+    if (pressed(GLFW_KEY_I)) layer_action([this](Layer layer) { document_->invert(layer); });
+    if (pressed(GLFW_KEY_EQUAL)) layer_action([this](Layer layer) { document_->grow(layer); });
+    if (pressed(GLFW_KEY_MINUS)) layer_action([this](Layer layer) { document_->shrink(layer); });
+    if (pressed(GLFW_KEY_LEFT_BRACKET)) brush_radius_ /= 1.25f;
+    if (pressed(GLFW_KEY_RIGHT_BRACKET)) brush_radius_ *= 1.25f;
+    if (pressed(GLFW_KEY_N)) {
+      document_->add_handle();
+      tool_ = Tool::PaintHandle;
+    }
+    if (pressed(GLFW_KEY_TAB) && document_->handle_count() > 0) {
+      document_->set_active_handle((document_->active_handle() + 1) % static_cast<int>(document_->handle_count()));
+    }
+    if (pressed(GLFW_KEY_0)) finish_action([this] { document_->reset_poses(); });
+    if (pressed(GLFW_KEY_A)) apply();
+    if (pressed(GLFW_KEY_W)) settings_.wireframe = !settings_.wireframe;
+    if (pressed(GLFW_KEY_V)) twist_axis_ = TwistAxis::View;
+    if (pressed(GLFW_KEY_H)) {
+      settings_.show_field = !settings_.show_field;
+      view_dirty_ = true;
+    }
+    if (pressed(GLFW_KEY_K)) settings_.show_classes = !settings_.show_classes;
+  }
+
+  // Whether `key` was pressed since the last frame with exactly the modifiers `mods` (of Ctrl,
+  // Shift and Alt).
+  bool pressed(int key, int mods = 0) const {
+    constexpr int kModifiers = GLFW_MOD_CONTROL | GLFW_MOD_SHIFT | GLFW_MOD_ALT;
+    return std::any_of(frame_keys_.begin(), frame_keys_.end(), [&](const KeyPress& press) {
+      return press.key == key && (press.mods & kModifiers) == mods;
+    });
+  }
+
+  Eigen::ParametrizedLine<float, 3> cursor_ray(const ImVec2& cursor) const {
+    const auto extent = target_->extent();
+    const ImVec2 scale = ImGui::GetIO().DisplayFramebufferScale;
+    return camera_.ray(cursor.x * scale.x, cursor.y * scale.y, static_cast<float>(extent.width), static_cast<float>(extent.height));
+  }
+
+  // The geometry on screen (the renderer's newest snapshot); the picker follows it.
+  const engine::GeometrySnapshot* shown_geometry() {
+    const engine::GeometrySnapshot* shown = exchange_ ? exchange_->acquire() : nullptr;
+    if (shown == nullptr) return nullptr;
+    if (!picker_) picker_ = std::make_unique<MeshPicker>(document_->rest().triangles, shown->position_normal);
+    else if (picker_version_ != shown->version) picker_->refit(shown->position_normal);
+    picker_version_ = shown->version;
+    return shown;
+  }
+
+  void handle_mouse() {
+    if (!document_) return;
+    ImGuiIO& io = ImGui::GetIO();
+    const ImVec2 mouse = io.MousePos;
+    const ImVec2 delta = io.MouseDelta;
+    const auto extent = target_->extent();
+    const float height = static_cast<float>(std::max(extent.height, 1u));
+    const bool over_view = !io.WantCaptureMouse;
+
+    // Camera: right drag orbits, middle drag (or shift+right) pans, the wheel zooms.
+    const bool orbiting = ImGui::IsMouseDown(ImGuiMouseButton_Right) || (io.KeyAlt && ImGui::IsMouseDown(ImGuiMouseButton_Left));
+    if (over_view || camera_drag_) {
+      if (ImGui::IsMouseDown(ImGuiMouseButton_Middle) || (io.KeyShift && ImGui::IsMouseDown(ImGuiMouseButton_Right))) {
+        camera_.pan(-delta.x / height, delta.y / height);
+        camera_drag_ = true;
+      } else if (orbiting) {
+        camera_.orbit(-delta.x * 0.008f, delta.y * 0.008f);
+        camera_drag_ = true;
+      } else {
+        camera_drag_ = false;
+      }
+      if (over_view && io.MouseWheel != 0.0f) camera_.zoom(std::pow(0.88f, io.MouseWheel));
+    }
+    if (io.KeyAlt) return;
+
+    if (ImGui::IsMouseClicked(ImGuiMouseButton_Left) && over_view) {
+      dragging_ = true;
+      stroke_.clear();
+      drag_cursor_ = mouse;
+      if (connected_armed_) {
+        connected_armed_ = false;
+        dragging_ = false;
+        paint_connected(mouse);
+        return;
+      }
+    }
+    if (!dragging_) return;
+    if (ImGui::IsMouseReleased(ImGuiMouseButton_Left) || !ImGui::IsMouseDown(ImGuiMouseButton_Left)) {
+      dragging_ = false;
+      if (is_paint_tool(tool_) && lasso_) paint_lasso();
+      commit_action();
+      return;
+    }
+    if (is_paint_tool(tool_)) {
+      if (lasso_) {
+        if (stroke_.empty() || std::hypot(stroke_.back().x - mouse.x, stroke_.back().y - mouse.y) > 3.0f) stroke_.push_back(mouse);
+      } else {
+        paint_brush(mouse);
+      }
+      return;
+    }
+    continue_handle_drag(mouse, last_input_);
+  }
+
+  // Applies the cursor's move since the last one applied (from the frame or from the wait for the
+  // device: each move counts once).
+  void continue_handle_drag(const ImVec2& cursor, Clock::time_point event_time) {
+    const ImVec2 delta(cursor.x - drag_cursor_.x, cursor.y - drag_cursor_.y);
+    if (delta.x == 0.0f && delta.y == 0.0f) return;
+    drag_handle(cursor, delta, event_time);
+    drag_cursor_ = cursor;
+  }
+
+  void paint_brush(const ImVec2& mouse) {
+    const auto* shown = shown_geometry();
+    if (shown == nullptr) return;
+    const auto hit = picker_->pick(cursor_ray(mouse));
+    if (!hit) return;
+    const auto vertices = vertices_in_ball(shown->position_normal, hit->point, brush_radius_);
+    document_->paint(vertices, layer_of(tool_), erase_);
+    view_dirty_ = true;
+    recovery_dirty_ = true;
+  }
+
+  void paint_lasso() {
+    const auto* shown = shown_geometry();
+    if (shown == nullptr || stroke_.size() < 3) return;
+    const ImVec2 scale = ImGui::GetIO().DisplayFramebufferScale;
+    std::vector<Eigen::Vector2f> polygon;
+    for (const auto& point : stroke_) polygon.emplace_back(point.x * scale.x, point.y * scale.y);
+    const auto extent = target_->extent();
+    const Eigen::Vector3f towards_viewer = (camera_.position() - camera_.target).normalized();
+    const auto vertices = vertices_in_lasso(shown->position_normal, polygon,
+                                            camera_.view_projection(static_cast<float>(extent.width) / static_cast<float>(extent.height)),
+                                            static_cast<float>(extent.width), static_cast<float>(extent.height), towards_viewer);
+    document_->paint(vertices, layer_of(tool_), erase_);
+    stroke_.clear();
+    view_dirty_ = true;
+  }
+
+  void paint_connected(const ImVec2& mouse) {
+    if (!is_paint_tool(tool_) || shown_geometry() == nullptr) return;
+    const auto hit = picker_->pick(cursor_ray(mouse));
+    if (!hit) return;
+    const auto vertices = connected_vertices(hit->vertex, document_->adjacency());
+    finish_action([&] { document_->paint(vertices, layer_of(tool_), erase_); });
+  }
+
+  // Moves the active handle by a mouse drag (or the benchmark's synthetic one).
+  void drag_handle(const ImVec2& mouse, const ImVec2& delta, Clock::time_point event_time) {
+    const int h = document_->active_handle();
+    if (document_->handle_count() == 0 || document_->handle_size(h) == 0) return;
+    const HandleTransform pose = document_->pose(h);
+    Eigen::Vector3d axis = pose.axis;
+    double angle = pose.angle;
+    double scale = pose.scale;
+    Eigen::Vector3d shift = pose.shift;
+    const Eigen::Vector3f eye = camera_.position();
+    const Eigen::Vector3f forward = (camera_.target - eye).normalized();
+    const Eigen::Vector3f right = forward.cross(camera_.up_vector()).normalized();
+    const Eigen::Vector3f up = right.cross(forward);
+    const Eigen::Vector3f centre = (pose.pivot + pose.shift).cast<float>();
+    const float height = static_cast<float>(std::max(target_->extent().height, 1u)) / ImGui::GetIO().DisplayFramebufferScale.y;
+    switch (tool_) {
+      case Tool::Grab: {
+        const float depth = std::max((centre - eye).dot(forward), 1e-6f);
+        const float world_per_pixel = 2.0f * depth * std::tan(0.5f * camera_.fov_y) / height;
+        shift += (world_per_pixel * (delta.x * right - delta.y * up)).cast<double>();
+        break;
+      }
+      case Tool::Rotate: {
+        const ImVec2 pivot = project(centre);
+        const double before = std::atan2(mouse.y - delta.y - pivot.y, mouse.x - delta.x - pivot.x);
+        const double after = std::atan2(mouse.y - pivot.y, mouse.x - pivot.x);
+        double turn = after - before;
+        turn -= 2.0 * std::numbers::pi * std::round(turn / (2.0 * std::numbers::pi));
+        compose_rotation(axis, angle, (-forward).cast<double>(), -turn);  // clockwise on screen follows the mouse
+        break;
+      }
+      case Tool::Scale: scale = std::clamp(scale * std::exp(-0.01 * delta.y), 0.05, 20.0); break;
+      case Tool::Twist: compose_rotation(axis, angle, twist_direction(forward), 0.01 * delta.x); break;
+      default: return;
+    }
+    document_->set_pose(h, axis, angle, scale, shift);
+    note_pose_input(event_time);
+    recovery_dirty_ = true;
+  }
+
+  Eigen::Vector3d twist_direction(const Eigen::Vector3f& forward) const {
+    switch (twist_axis_) {
+      case TwistAxis::X: return Eigen::Vector3d::UnitX();
+      case TwistAxis::Y: return Eigen::Vector3d::UnitY();
+      case TwistAxis::Z: return Eigen::Vector3d::UnitZ();
+      case TwistAxis::View: return (-forward).cast<double>();
+    }
+    return Eigen::Vector3d::UnitZ();
+  }
+
+  ImVec2 project(const Eigen::Vector3f& point) const {
+    const auto extent = target_->extent();
+    const Eigen::Vector4f clip =
+        camera_.view_projection(static_cast<float>(extent.width) / static_cast<float>(extent.height)) * Eigen::Vector4f(point.x(), point.y(), point.z(), 1.0f);
+    const ImVec2 scale = ImGui::GetIO().DisplayFramebufferScale;
+    return ImVec2((clip.x() / clip.w() * 0.5f + 0.5f) * static_cast<float>(extent.width) / scale.x,
+                  (clip.y() / clip.w() * 0.5f + 0.5f) * static_cast<float>(extent.height) / scale.y);
+  }
+
+  void draw_overlays() {
+    if (!document_ || screenshot_requested_) return;
+    ImDrawList* draw = ImGui::GetForegroundDrawList();
+    const ImVec2 mouse = ImGui::GetIO().MousePos;
+    if (is_paint_tool(tool_)) {
+      if (lasso_ && stroke_.size() > 1) draw->AddPolyline(stroke_.data(), static_cast<int>(stroke_.size()), IM_COL32(255, 230, 60, 255), 0, 1.5f);
+      if (!lasso_ && !ImGui::GetIO().WantCaptureMouse) {
+        // The brush at its world size, at the cursor's depth on the mesh.
+        const engine::GeometrySnapshot* shown = shown_geometry();
+        const auto hit = shown != nullptr ? picker_->pick(cursor_ray(mouse)) : std::nullopt;
+        if (hit) {
+          const Eigen::Vector3f right = (camera_.target - camera_.position()).cross(camera_.up_vector()).normalized();
+          const ImVec2 centre = project(hit->point);
+          const ImVec2 edge = project(hit->point + brush_radius_ * right);
+          draw->AddCircle(centre, std::hypot(edge.x - centre.x, edge.y - centre.y), erase_ ? IM_COL32(255, 80, 80, 255) : IM_COL32(255, 255, 255, 220),
+                          48, 1.5f);
+        }
+      }
+      return;
+    }
+    const int h = document_->active_handle();
+    if (document_->handle_count() == 0 || document_->handle_size(h) == 0) return;
+    const HandleTransform& pose = document_->pose(h);
+    const Eigen::Vector3f centre = (pose.pivot + pose.shift).cast<float>();
+    const ImVec2 c = project(centre);
+    const float length = 0.08f * scene_size();
+    const ImU32 axis_colors[3] = {IM_COL32(230, 70, 70, 255), IM_COL32(80, 200, 80, 255), IM_COL32(80, 120, 240, 255)};
+    for (int k = 0; k < 3; ++k) {
+      const ImVec2 tip = project(centre + length * Eigen::Vector3f::Unit(k));
+      draw->AddLine(c, tip, axis_colors[k], 2.0f);
+    }
+    draw->AddCircle(c, 6.0f, IM_COL32(255, 255, 255, 255), 16, 2.0f);
+    char text[96];
+    std::snprintf(text, sizeof text, "%s  %.1f°  ×%.2f", tool_name(tool_), pose.angle * 180.0 / std::numbers::pi, pose.scale);
+    draw->AddText(ImVec2(c.x + 10, c.y + 8), IM_COL32(255, 255, 255, 255), text);
+  }
+
+  // ---- the drag benchmark ---------------------------------------------------------------------------
+
+  // Drags the first handle back and forth along its pose (from the identity to the pose the
+  // command line gave, or a default bend) through the same code as a mouse drag, then reports
+  // frame times and input-to-screen latency and quits. The input comes like a mouse's: a thread
+  // produces timestamped moves at 100 Hz, independent of the frames, and the loop takes them
+  // whenever it gets to them; each move's latency runs from its timestamp to the first frame
+  // that shows a solve including it.
+  void benchmark_step() {
+    if (!document_ || document_->solver_state() != Document::SolverState::Ready) return;
+    if (!benchmark_active_) {
+      benchmark_active_ = true;
+      benchmark_target_ = document_->pose(0);
+      if (benchmark_target_.angle == 0.0 && benchmark_target_.shift.isZero()) {
+        benchmark_target_ = HandleTransform::about_pivot(Eigen::Vector3d::UnitX(), benchmark_target_.pivot, 0.5, 1.0,
+                                                         Eigen::Vector3d(0.0, 0.1 * scene_size(), 0.0));
+      }
+      document_->set_active_handle(0);
+      benchmark_started_ = Clock::now();
+      frame_intervals_.clear();
+      latencies_.clear();
+      pending_requests_.clear();
+      frame_previous_ = {};
+      benchmark_input_ = std::thread([this] {
+        const auto start = Clock::now();
+        while (!benchmark_stop_) {
+          {
+            std::lock_guard lock(benchmark_mutex_);
+            benchmark_events_.push_back(Clock::now());
+          }
+          glfwPostEmptyEvent();
+          std::this_thread::sleep_until(start + std::chrono::milliseconds(10) * (1 + static_cast<long>(seconds_since(start) * 100.0)));
+        }
+      });
+      return;
+    }
+    const double elapsed = seconds_since(benchmark_started_);
+    if (elapsed > options_.benchmark_drag_seconds) {
+      benchmark_stop_ = true;
+      benchmark_input_.join();
+      slots_->wait_all();
+      note_finished_frames();
+      finish_benchmark();
+      return;
+    }
+    take_benchmark_input();
+  }
+
+  void take_benchmark_input() {
+    std::vector<Clock::time_point> events;
+    {
+      std::lock_guard lock(benchmark_mutex_);
+      events.swap(benchmark_events_);
+    }
+    if (events.empty()) return;
+    // The newest move decides the pose (a 2 s back-and-forth); every move taken now is answered
+    // by this request.
+    const double at = std::chrono::duration<double>(events.back() - benchmark_started_).count();
+    const auto pose = benchmark_target_.at_fraction(0.5 - 0.5 * std::cos(2.0 * std::numbers::pi * at / 2.0));
+    document_->set_pose(0, pose.axis, pose.angle, pose.scale, pose.shift);
+    note_pose_input(events);
+  }
+
+  void finish_benchmark() {
+    benchmark_active_ = false;
+    benchmark_done_ = true;
+    const double seconds = seconds_since(benchmark_started_);
+    const std::vector<double> frames(frame_intervals_.begin(), frame_intervals_.end());
+    const std::vector<double> latencies(latencies_.begin(), latencies_.end());
+    const auto extent = target_->extent();
+    nlohmann::json report = {{"command", "gui --benchmark-drag"},
+                             {"mesh", mesh_name_},
+                             {"vertices", document_->vertex_count()},
+                             {"triangles", document_->rest().triangle_count()},
+                             {"device", context_->device_name()},
+                             {"width", extent.width},
+                             {"height", extent.height},
+                             {"samples", static_cast<int>(target_->format().samples)},
+                             {"pacing", latch_solves_ ? "latch" : "free"},
+                             {"seconds", seconds},
+                             {"frames", frames.size()},
+                             {"frames_per_second", static_cast<double>(frames.size()) / seconds},
+                             {"frame_ms", to_json(summarize(frames))},
+                             {"input_to_screen_ms", to_json(summarize(latencies))},
+                             {"updates_shown", latencies.size()},
+                             {"last_update_ms", document_->last_update_ms()},
+                             {"validation_messages", context_->validation_message_count()}};
+    if (!options_.benchmark_out.empty()) {
+      const std::string text = report.dump(2) + "\n";
+      write_file_atomically(options_.benchmark_out, [&](std::ostream& out) { out << text; });
+    }
+    print_json_line(report);
+    quit_ = true;
+  }
+
+  // ---- state ------------------------------------------------------------------------------------------
+
+  EditorOptions options_;
+  GLFWwindow* window_ = nullptr;
+  bool glfw_started_ = false;
+  bool imgui_started_ = false;
+  bool imgui_vulkan_started_ = false;
+  VkDescriptorPool imgui_pool_ = VK_NULL_HANDLE;
+  std::unique_ptr<engine::VulkanContext> context_;
+  std::unique_ptr<engine::SwapchainTarget> target_;
+  std::unique_ptr<engine::FrameSlots> slots_;
+  std::unique_ptr<engine::MeshRenderer> renderer_;
+  std::unique_ptr<engine::GeometryExchange> exchange_;
+  std::unique_ptr<engine::GeometryPublisher> publisher_;
+  std::unique_ptr<Document> document_;
+  std::unique_ptr<MeshPicker> picker_;
+  std::uint64_t picker_version_ = 0;
+  std::unique_ptr<RecoveryWriter> recovery_;
+
+  std::thread load_thread_;
+  std::mutex load_mutex_;
+  std::atomic<bool> load_done_{false};
+  bool loading_ = false;
+  Clock::time_point load_started_;
+  std::unique_ptr<Loaded> loaded_;
+  std::string load_error_;
+  Clock::time_point build_started_{};
+
+  engine::Camera camera_;
+  engine::RenderSettings settings_;
+  std::string mesh_name_;
+  std::string output_path_;
+  char path_buffer_[1024] = {};
+  std::string status_;
+  std::string error_message_;
+  std::string dropped_path_;
+
+  Tool tool_ = Tool::Grab;
+  TwistAxis twist_axis_ = TwistAxis::Z;
+  bool erase_ = false;
+  bool lasso_ = false;
+  bool connected_armed_ = false;
+  float brush_radius_ = 0.02f;
+  bool dragging_ = false;
+  bool camera_drag_ = false;
+  ImVec2 drag_cursor_{};  // the cursor position the handle drag has applied up to
+  std::vector<ImVec2> stroke_;
+  bool view_dirty_ = true;
+  struct KeyPress {
+    int key;
+    int mods;
+  };
+  std::vector<KeyPress> queued_keys_;  // from the key callback, until the next frame
+  std::vector<KeyPress> frame_keys_;   // this frame's
+
+  bool show_help_ = false;
+  bool show_restore_prompt_ = false;
+  bool open_dialog_ = false;
+  bool save_dialog_ = false;
+  bool quit_dialog_ = false;
+  bool quit_ = false;
+  int exit_code_ = 0;
+  bool screenshot_requested_ = false;
+  int screenshots_ = 0;
+  bool recovery_dirty_ = false;
+  Clock::time_point last_recovery_ = Clock::now();
+
+  // Frame and latency figures.
+  std::deque<std::pair<std::uint64_t, std::uint64_t>> frame_tags_;  // frame number, geometry tag shown
+  std::uint64_t shown_tag_ = 0;
+  Clock::time_point last_input_ = Clock::now();
+  std::deque<Clock::time_point> frame_times_;
+  std::deque<double> frame_intervals_;
+  Clock::time_point frame_previous_{};
+  std::deque<std::pair<std::uint64_t, Clock::time_point>> pending_requests_;
+  std::deque<double> latencies_;
+  std::vector<Clock::time_point> unposted_events_;  // inputs whose solve is not posted yet
+  bool latch_solves_ = false;
+  std::deque<double> update_times_;
+  double last_update_seen_ = 0.0;
+  bool benchmark_active_ = false;
+  std::thread benchmark_input_;
+  std::atomic<bool> benchmark_stop_{false};
+  std::mutex benchmark_mutex_;
+  std::vector<Clock::time_point> benchmark_events_;
+  bool benchmark_done_ = false;
+  HandleTransform benchmark_target_;
+  Clock::time_point benchmark_started_;
+};
+
+}  // namespace
+
+int run_editor(const EditorOptions& options) {
+  EditorApp app(options);
+  return app.run();
+}
+
+}  // namespace hdeform::cli

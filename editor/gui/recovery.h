@@ -1,0 +1,48 @@
+#pragma once
+// Crash safety: the session goes to a recovery file after every finished action and every few
+// seconds, written atomically on a thread of its own (a large session's JSON must not stall a
+// frame). A clean exit removes the file; finding it at start means the last run ended without
+// one, and the editor offers to restore it.
+#include <condition_variable>
+#include <filesystem>
+#include <mutex>
+#include <optional>
+#include <thread>
+
+#include "session.h"
+
+namespace hdeform::cli {
+
+// $HDEFORM_RECOVERY_FILE, else $XDG_STATE_HOME/hdeform/recovery.json, else
+// ~/.local/state/hdeform/recovery.json.
+std::filesystem::path default_recovery_path();
+
+class RecoveryWriter {
+ public:
+  explicit RecoveryWriter(std::filesystem::path path);
+  ~RecoveryWriter();  // writes what is pending, then stops
+  RecoveryWriter(const RecoveryWriter&) = delete;
+  RecoveryWriter& operator=(const RecoveryWriter&) = delete;
+
+  const std::filesystem::path& path() const { return path_; }
+  // Queues a write; a newer session replaces one not yet written.
+  void post(Session session);
+  // Waits until everything posted is on disk.
+  void flush();
+  // Removes the file (clean exit); later posts write it again.
+  void discard();
+
+ private:
+  void run();
+
+  std::filesystem::path path_;
+  std::mutex mutex_;
+  std::condition_variable wake_;
+  std::condition_variable written_;
+  std::optional<Session> pending_;
+  bool writing_ = false;
+  bool stopping_ = false;
+  std::thread thread_;
+};
+
+}  // namespace hdeform::cli

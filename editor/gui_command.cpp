@@ -1,0 +1,54 @@
+// hdeform gui: the interactive editor.
+#include "batch_commands.h"
+#include "cli_support.h"
+#include "gui/editor_app.h"
+
+namespace hdeform::cli {
+namespace {
+
+class GuiCommand final : public BatchCommand {
+ public:
+  CLI::App* add_to(CLI::App& app) override {
+    auto* command = app.add_subcommand("gui", "The interactive editor (without a mesh: the built-in cactus, ready for Figure 1)");
+    command->add_option("mesh", options_.mesh, "Mesh to open (OBJ), or shape:NAME[:RESOLUTION]");
+    command->add_option("--session", options_.session, "Open an editor session (JSON)");
+    command->add_option("--fixed", options_.fixed, "Fixed vertices: 0-based indices");
+    command->add_option("--handle", options_.handles, "Handle vertices: 0-based indices; repeat for several handles");
+    command->add_option("--transform", options_.transforms, "Starting transform of the matching --handle (as for edit)");
+    command->add_option("--roi", options_.roi, "Region of interest: 0-based indices");
+    command->add_option("--output", options_.output, "Where Ctrl+S saves the result (OBJ; the session goes beside it)");
+    command->add_option("--up", options_.up, "Up axis of the mesh: z or y")->capture_default_str();
+    command->add_option("--size", options_.size, "Window size WIDTHxHEIGHT")->capture_default_str();
+    command->add_option("--samples", options_.samples, "Multisampling (default: 4 on a GPU, 1 on a CPU device)");
+    command->add_option("--device", options_.device, "Vulkan device: gpu, cpu, an index or part of a name");
+    command->add_option("--pacing", options_.pacing,
+                        "Solves and frames: free (frames never wait), latch (a frame waits up to 20 ms for the newest solve), "
+                        "auto (latch on a CPU device)")
+        ->check(CLI::IsMember({"auto", "free", "latch"}))
+        ->capture_default_str();
+    command->add_flag("--validation", options_.validation, "Enable the Khronos validation layer");
+    command->add_option("--recovery-file", options_.recovery_file, "Crash-recovery file (default: $HDEFORM_RECOVERY_FILE or ~/.local/state/hdeform)");
+    command->add_option("--restore", options_.restore, "After a crash: ask, yes or no")->capture_default_str();
+    command->add_option("--screenshot-dir", options_.screenshot_dir, "Where F12 writes screenshots")->capture_default_str();
+    command->add_option("--benchmark-drag", options_.benchmark_drag_seconds, "Drag the first handle for this many seconds, report frame times and latency, quit");
+    command->add_option("--benchmark-out", options_.benchmark_out, "Also write the benchmark report to this file");
+    return command;
+  }
+
+  int run() override {
+    if (options_.restore != "ask" && options_.restore != "yes" && options_.restore != "no") throw UsageError("--restore must be ask, yes or no");
+    if (!options_.session.empty() && !options_.mesh.empty()) throw UsageError("give a mesh or --session, not both");
+    if (options_.transforms.size() > options_.handles.size()) throw UsageError("more --transform than --handle");
+    if (options_.up != "z" && options_.up != "y") throw UsageError("--up must be z or y");
+    return run_editor(options_);
+  }
+
+ private:
+  EditorOptions options_;
+};
+
+}  // namespace
+
+std::unique_ptr<BatchCommand> make_gui_command() { return std::make_unique<GuiCommand>(); }
+
+}  // namespace hdeform::cli

@@ -1,0 +1,410 @@
+// The editor as a user drives it: `hdeform gui` under Xvfb (ctest runs this under xvfb-run),
+// real X input from xdotool (pointer moves, button and key presses through XTEST), and the files
+// it writes. Paint a sink and a handle, drag the handle, save: the saved mesh is the batch replay
+// of the saved session and moved where the handle did; the window's screenshot is the offscreen
+// render of the same state; kill -9 and restart restores the state before the kill; the
+// validation layer reports nothing.
+#include <nlohmann/json.hpp>
+
+#include <fcntl.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <condition_variable>
+#include <fstream>
+#include <mutex>
+#include <thread>
+
+#include "hdeform/deformer.h"
+#include "hdeform/engine/image_io.h"
+#include "hdeform/engine/offscreen.h"
+#include "hdeform/mesh_io.h"
+#include "hdeform/shapes.h"
+#include "render_support.h"
+#include "session.h"
+#include "test_support.h"
+
+extern char** environ;
+
+namespace hdeform {
+namespace {
+
+using namespace std::chrono_literals;
+using Clock = std::chrono::steady_clock;
+using nlohmann::json;
+
+constexpr int kWidth = 1200;
+constexpr int kHeight = 700;
+constexpr float kPanelWidth = 330.0f;  // the editor's side panel covers the view left of this
+
+// Runs a shell command; returns its exit status and standard output.
+std::pair<int, std::string> shell(const std::string& command) {
+  FILE* pipe = popen(command.c_str(), "r");
+  std::string out;
+  char buffer[4096];
+  while (const auto n = std::fread(buffer, 1, sizeof buffer, pipe)) out.append(buffer, n);
+  const int status = pclose(pipe);
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out};
+}
+
+void xdotool(const std::string& arguments) {
+  const auto [status, out] = shell("xdotool " + arguments + " 2>&1");
+  ASSERT_EQ(status, 0) << "xdotool " << arguments << ": " << out;
+}
+
+// The editor as a child process; its stdout's JSON lines are collected as they come.
+class Editor {
+ public:
+  explicit Editor(const std::vector<std::string>& arguments) {
+    int out[2];
+    if (pipe(out) != 0) throw std::runtime_error("pipe failed");
+    posix_spawn_file_actions_t actions;
+    posix_spawn_file_actions_init(&actions);
+    posix_spawn_file_actions_adddup2(&actions, out[1], STDOUT_FILENO);
+    posix_spawn_file_actions_addclose(&actions, out[0]);
+    std::vector<std::string> argv_storage{HDEFORM_EXECUTABLE, "gui"};
+    argv_storage.insert(argv_storage.end(), arguments.begin(), arguments.end());
+    std::vector<char*> argv;
+    for (auto& argument : argv_storage) argv.push_back(argument.data());
+    argv.push_back(nullptr);
+    if (posix_spawn(&pid_, HDEFORM_EXECUTABLE, &actions, nullptr, argv.data(), environ) != 0) throw std::runtime_error("spawn failed");
+    posix_spawn_file_actions_destroy(&actions);
+    close(out[1]);
+    reader_ = std::thread([this, fd = out[0]] {
+      std::string pending;
+      char buffer[4096];
+      ssize_t n = 0;
+      while ((n = read(fd, buffer, sizeof buffer)) > 0) {
+        pending.append(buffer, static_cast<std::size_t>(n));
+        for (auto end = pending.find('\n'); end != std::string::npos; end = pending.find('\n')) {
+          const std::string line = pending.substr(0, end);
+          pending.erase(0, end + 1);
+          std::fprintf(stderr, "editor: %s\n", line.c_str());
+          std::lock_guard lock(mutex_);
+          try {
+            events_.push_back(json::parse(line));
+          } catch (const json::exception&) {
+            events_.push_back(json{{"event", "text"}, {"text", line}});
+          }
+          arrived_.notify_all();
+        }
+      }
+      close(fd);
+    });
+  }
+  ~Editor() {
+    if (pid_ > 0) kill_now();
+    if (reader_.joinable()) reader_.join();
+  }
+
+  // The first event named `name` after the first `after` events (any, when `after` is 0).
+  json wait_for(const std::string& name, std::chrono::seconds timeout = 120s, std::size_t after = 0) {
+    std::unique_lock lock(mutex_);
+    json found;
+    const bool arrived = arrived_.wait_for(lock, timeout, [&] {
+      for (std::size_t k = after; k < events_.size(); ++k) {
+        if (events_[k].value("event", "") == name) {
+          found = events_[k];
+          return true;
+        }
+      }
+      return false;
+    });
+    if (!arrived) ADD_FAILURE() << "the editor did not report '" << name << "' within " << timeout.count() << " s";
+    return found;
+  }
+  std::size_t event_count() {
+    std::lock_guard lock(mutex_);
+    return events_.size();
+  }
+  // The newest solver state reported, once none has arrived for `quiet` (the deformer is rebuilt
+  // while a selection changes; the last rebuild decides).
+  std::string settled_solver_state(std::chrono::milliseconds quiet = 1500ms, std::chrono::seconds timeout = 120s) {
+    const auto deadline = Clock::now() + timeout;
+    std::string state;
+    std::size_t seen = 0;
+    auto last_change = Clock::now();
+    while (Clock::now() < deadline) {
+      {
+        std::lock_guard lock(mutex_);
+        for (; seen < events_.size(); ++seen) {
+          if (events_[seen].value("event", "") != "solver") continue;
+          state = events_[seen].value("state", "");
+          last_change = Clock::now();
+        }
+      }
+      if (state == "ready" && Clock::now() - last_change > quiet) return state;
+      std::this_thread::sleep_for(50ms);
+    }
+    return state;
+  }
+
+  int wait_exit(std::chrono::seconds timeout = 60s) {
+    const auto deadline = Clock::now() + timeout;
+    while (Clock::now() < deadline) {
+      int status = 0;
+      if (waitpid(pid_, &status, WNOHANG) == pid_) {
+        pid_ = -1;
+        return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+      }
+      std::this_thread::sleep_for(50ms);
+    }
+    ADD_FAILURE() << "the editor did not exit within " << timeout.count() << " s";
+    kill_now();
+    return -1;
+  }
+  void kill_now() {
+    ::kill(pid_, SIGKILL);
+    waitpid(pid_, nullptr, 0);
+    pid_ = -1;
+  }
+
+ private:
+  pid_t pid_ = -1;
+  std::thread reader_;
+  std::mutex mutex_;
+  std::condition_variable arrived_;
+  std::vector<json> events_;
+};
+
+// Where the editor's default view puts a point of the rest shape, in window pixels.
+struct View {
+  engine::Camera camera;
+  Eigen::Vector2f pixel(const Eigen::Vector3d& point) const {
+    const Eigen::Vector4f clip = camera.view_projection(static_cast<float>(kWidth) / kHeight) * Eigen::Vector4f(point.cast<float>().homogeneous());
+    return {(clip.x() / clip.w() * 0.5f + 0.5f) * kWidth, (clip.y() / clip.w() * 0.5f + 0.5f) * kHeight};
+  }
+  float depth(const Eigen::Vector3d& point) const { return (point.cast<float>() - camera.position()).norm(); }
+};
+
+// The vertex of `vertices` nearest the camera: on the side the user sees.
+int facing_vertex(const Mesh& mesh, const std::vector<int>& vertices, const View& view) {
+  return *std::min_element(vertices.begin(), vertices.end(), [&](int a, int b) {
+    return view.depth(mesh.positions.row(a).transpose()) < view.depth(mesh.positions.row(b).transpose());
+  });
+}
+
+std::string at(const Eigen::Vector2f& p) { return std::to_string(static_cast<int>(std::lround(p.x()))) + " " + std::to_string(static_cast<int>(std::lround(p.y()))); }
+
+class EditorGui : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    if (std::getenv("DISPLAY") == nullptr) GTEST_SKIP() << "no X display (ctest runs this under xvfb-run)";
+    if (shell("command -v xdotool").first != 0) GTEST_SKIP() << "xdotool is not installed (scripts/setup installs it)";
+    shape = make_shape(ShapeKind::Cactus, 24);
+    write_obj(dir.file("cactus.obj"), shape.mesh);
+    rest = read_obj(dir.file("cactus.obj"));  // as the editor reads it
+    view.camera = engine::Camera::three_quarter_front(engine::Bounds::of(rest.positions), engine::UpAxis::Z, static_cast<float>(kWidth) / kHeight);
+  }
+
+  std::vector<std::string> editor_arguments(const std::string& restore) const {
+    return {dir.file("cactus.obj").string(), "--size", std::to_string(kWidth) + "x" + std::to_string(kHeight),
+            "--recovery-file", dir.file("recovery.json").string(), "--restore", restore,
+            "--output", dir.file("saved.obj").string(), "--screenshot-dir", dir.path().string(), "--validation"};
+  }
+
+  // The editor's window: found by title, given the keyboard focus, the pointer over its view.
+  void find_window() {
+    const auto deadline = Clock::now() + 60s;
+    while (Clock::now() < deadline) {
+      const auto [status, out] = shell("xdotool search --onlyvisible --name '^hdeform' 2>/dev/null");
+      if (status == 0 && !out.empty()) {
+        window = out.substr(0, out.find('\n'));
+        xdotool("windowfocus " + window);
+        move_to({kWidth * 0.75f, kHeight * 0.5f});
+        return;
+      }
+      std::this_thread::sleep_for(100ms);
+    }
+    FAIL() << "no editor window appeared";
+  }
+
+  void move_to(const Eigen::Vector2f& p) {
+    xdotool("mousemove --window " + window + " " + at(p));
+    std::this_thread::sleep_for(60ms);
+  }
+  // A key held as long as a person holds it.
+  void press(const std::string& key) {
+    xdotool("keydown " + key);
+    std::this_thread::sleep_for(80ms);
+    xdotool("keyup " + key);
+    std::this_thread::sleep_for(150ms);
+  }
+  // A press at `from`, a move to `to` in `steps`, a release.
+  void drag(const Eigen::Vector2f& from, const Eigen::Vector2f& to, int steps) {
+    move_to(from);
+    xdotool("mousedown 1");
+    std::this_thread::sleep_for(150ms);
+    for (int k = 1; k <= steps; ++k) move_to(from + (to - from) * (static_cast<float>(k) / static_cast<float>(steps)));
+    std::this_thread::sleep_for(150ms);
+    xdotool("mouseup 1");
+    std::this_thread::sleep_for(300ms);
+  }
+
+  // Paints the demo's sink (low on the trunk) and handle (tip of the left arm) with the brush,
+  // aiming at their vertices that face the camera; returns the handle's pixel.
+  Eigen::Vector2f paint_sink_and_handle(Editor& editor) {
+    aimed_sink = facing_vertex(rest, shape.demo_constraints.fixed, view);
+    aimed_handle = facing_vertex(rest, shape.demo_constraints.handles[0], view);
+    const auto sink = view.pixel(rest.positions.row(aimed_sink).transpose());
+    const auto tip = view.pixel(rest.positions.row(aimed_handle).transpose());
+    EXPECT_GT(sink.x(), kPanelWidth + 10.0f) << "the sink is under the panel";
+    EXPECT_GT(tip.x(), kPanelWidth + 10.0f) << "the handle is under the panel";
+    press("2");  // paint fixed
+    drag(sink + Eigen::Vector2f(-6, 0), sink + Eigen::Vector2f(6, 0), 4);
+    press("3");  // paint handle
+    drag(tip + Eigen::Vector2f(0, -4), tip + Eigen::Vector2f(0, 4), 4);
+    EXPECT_EQ(editor.settled_solver_state(), "ready") << "painting a sink and a handle should give a solvable system";
+    return tip;
+  }
+
+  // Moves the handle with the grab tool (the move follows the pointer wherever the drag starts).
+  void grab_and_drag(const Eigen::Vector2f& from, const Eigen::Vector2f& by) {
+    press("g");
+    drag(from, from + by, 12);
+    std::this_thread::sleep_for(700ms);  // the last solve lands
+  }
+
+  json save(Editor& editor) {
+    const auto before = editor.event_count();
+    press("ctrl+s");
+    return editor.wait_for("saved", 60s, before);
+  }
+
+  void quit(Editor& editor) {
+    const auto before = editor.event_count();
+    press("ctrl+q");
+    const json exit_event = editor.wait_for("exit", 60s, before);
+    EXPECT_EQ(exit_event.value("validation_messages", -1), 0) << "Vulkan validation reported problems (see stderr)";
+    EXPECT_EQ(editor.wait_exit(), 0);
+  }
+
+  test::TempDir dir;
+  Shape shape;
+  Mesh rest;
+  View view;
+  std::string window;
+  int aimed_sink = -1;
+  int aimed_handle = -1;
+};
+
+Eigen::MatrixXd replay(const test::TempDir& dir, const std::string& session, const std::string& out) {
+  const auto [status, output] = shell(std::string(HDEFORM_EXECUTABLE) + " edit --session " + session + " --out " + dir.file(out).string() + " --quiet 2>&1");
+  EXPECT_EQ(status, 0) << output;
+  return read_obj(dir.file(out)).positions;
+}
+
+TEST_F(EditorGui, PaintDragAndSaveGiveTheBatchReplayAndTheScreenShowsTheOffscreenPicture) {
+  Editor editor(editor_arguments("no"));
+  editor.wait_for("opened");
+  ASSERT_NO_FATAL_FAILURE(find_window());
+  const Eigen::Vector2f tip = paint_sink_and_handle(editor);
+  grab_and_drag(tip, {90.0f, -40.0f});
+  const json saved = save(editor);
+  ASSERT_FALSE(saved.is_null());
+  const auto screenshot_events = editor.event_count();
+  press("F12");
+  const json screenshot = editor.wait_for("screenshot", 60s, screenshot_events);
+  quit(editor);
+
+  // The session holds what was painted, where it was painted.
+  const auto session = cli::read_session(saved["session"].get<std::string>());
+  ASSERT_FALSE(session.current.fixed.empty());
+  ASSERT_EQ(session.current.handles.size(), 1u);
+  const auto& handle = session.current.handles[0];
+  ASSERT_FALSE(handle.vertices.empty());
+  const double diagonal = (rest.positions.colwise().maxCoeff() - rest.positions.colwise().minCoeff()).norm();
+  // The brush (3% of the diagonal) swept a few pixels around the aimed vertex.
+  const auto near = [&](int v, int aimed) { return (rest.positions.row(v) - rest.positions.row(aimed)).norm() < 0.1 * diagonal; };
+  for (const int v : handle.vertices) EXPECT_TRUE(near(v, aimed_handle)) << "handle vertex " << v << " is far from where the brush went";
+  for (const int v : session.current.fixed) EXPECT_TRUE(near(v, aimed_sink)) << "fixed vertex " << v << " is far from where the brush went";
+  EXPECT_GT(handle.transform.shift.norm(), 0.02 * diagonal) << "the drag should have moved the handle";
+
+  // The saved mesh is the batch replay of the saved session, moved where the handle moved and
+  // still where the sink holds it.
+  const Mesh result = read_obj(saved["obj"].get<std::string>());
+  const Eigen::MatrixXd replayed = replay(dir, saved["session"].get<std::string>(), "replayed.obj");
+  ASSERT_EQ(replayed.rows(), result.positions.rows());
+  EXPECT_LE((replayed - result.positions).cwiseAbs().maxCoeff(), 1e-12 * diagonal);
+  double handle_motion = 0.0;
+  for (const int v : handle.vertices) handle_motion = std::max(handle_motion, (result.positions.row(v) - rest.positions.row(v)).norm());
+  EXPECT_GT(handle_motion, 0.02 * diagonal);
+  for (const int v : session.current.fixed) EXPECT_LE((result.positions.row(v) - rest.positions.row(v)).norm(), 1e-9 * diagonal);
+
+  // The window's picture of that state equals the offscreen renderer's.
+  engine::Scene scene;
+  scene.positions = result.positions;
+  scene.triangles = rest.triangles;
+  scene.rest_bounds = engine::Bounds::of(rest.positions);
+  const Deformer deformer(rest, session.current.constraints());
+  scene.field = deformer.field();
+  scene.classes.assign(static_cast<std::size_t>(rest.vertex_count()), HD_CLASS_FREE);
+  for (const int v : session.current.fixed) scene.classes[static_cast<std::size_t>(v)] = engine::fixed_class();
+  for (const int v : handle.vertices) scene.classes[static_cast<std::size_t>(v)] = engine::handle_class(0);
+  engine::Shot shot;
+  shot.width = kWidth;
+  shot.height = kHeight;
+  shot.samples = 1;  // the editor's on a CPU device
+  const auto context = test::validated_context();
+  const engine::Pixels offscreen = engine::render_offscreen(*context, scene, shot);
+  const engine::Pixels window_picture = engine::read_png(screenshot["path"].get<std::string>());
+  ASSERT_EQ(window_picture.width, offscreen.width);
+  ASSERT_EQ(window_picture.height, offscreen.height);
+  const auto difference = test::compare_images(window_picture, offscreen, 24);
+  EXPECT_LE(difference.differing_fraction, 0.005) << "largest channel difference " << difference.largest;
+  EXPECT_EQ(context->validation_message_count(), 0u);
+}
+
+TEST_F(EditorGui, AfterKillNineTheNextStartRestoresTheStateBeforeTheKill) {
+  cli::Session before_kill;
+  {
+    Editor editor(editor_arguments("no"));
+    editor.wait_for("opened");
+    ASSERT_NO_FATAL_FAILURE(find_window());
+    const Eigen::Vector2f tip = paint_sink_and_handle(editor);
+    grab_and_drag(tip, {-70.0f, -50.0f});
+    // The finished drag is written to the recovery file at once (atomically: a reader never sees
+    // half a file).
+    const auto deadline = Clock::now() + 30s;
+    bool written = false;
+    while (!written && Clock::now() < deadline) {
+      try {
+        before_kill = cli::read_session(dir.file("recovery.json"));
+        written = before_kill.current.handles.size() == 1 && before_kill.current.handles[0].transform.shift.norm() > 0.0 &&
+                  !before_kill.current.fixed.empty();
+      } catch (const std::exception&) {
+      }
+      if (!written) std::this_thread::sleep_for(100ms);
+    }
+    ASSERT_TRUE(written) << "the recovery file never held the drag";
+    editor.kill_now();
+  }
+  ASSERT_TRUE(std::filesystem::exists(dir.file("recovery.json")));
+
+  Editor editor(editor_arguments("ask"));
+  editor.wait_for("restore prompt");
+  ASSERT_NO_FATAL_FAILURE(find_window());
+  press("Return");
+  editor.wait_for("opened");
+  EXPECT_EQ(editor.settled_solver_state(), "ready");
+  const json saved = save(editor);
+  ASSERT_FALSE(saved.is_null());
+  quit(editor);
+  EXPECT_FALSE(std::filesystem::exists(dir.file("recovery.json"))) << "a clean exit removes the recovery file";
+
+  const auto restored = cli::read_session(saved["session"].get<std::string>());
+  EXPECT_EQ(restored.current, before_kill.current);
+  const Mesh result = read_obj(saved["obj"].get<std::string>());
+  const Eigen::MatrixXd replayed = replay(dir, saved["session"].get<std::string>(), "replayed.obj");
+  ASSERT_EQ(replayed.rows(), result.positions.rows());
+  EXPECT_EQ(replayed, result.positions);
+  double moved = 0.0;
+  for (const int v : restored.current.handles[0].vertices) moved = std::max(moved, (result.positions.row(v) - rest.positions.row(v)).norm());
+  EXPECT_GT(moved, 0.0) << "the restored mesh shows the drag";
+}
+
+}  // namespace
+}  // namespace hdeform
