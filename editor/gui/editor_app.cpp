@@ -127,7 +127,10 @@ class EditorApp {
                         (document_ && (document_->solver_state() == Document::SolverState::Building ||
                                        document_->last_published_request() != shown_tag_));
       if (busy) glfwPollEvents();
-      else glfwWaitEventsTimeout(0.25);
+      else {
+        glfwWaitEventsTimeout(0.25);
+        waited_idle_ = true;
+      }
       if (glfwWindowShouldClose(window_)) {
         glfwSetWindowShouldClose(window_, GLFW_FALSE);
         request_quit();
@@ -596,7 +599,8 @@ class EditorApp {
     if (!screenshot) ImGui_ImplVulkan_RenderDrawData(draw_data, slot.commands);
     target_->end(slot.commands, image, screenshot);
     const std::uint64_t frame = slots_->submit(slot, slot.image_available, target_->render_finished(image));
-    frame_tags_.emplace_back(frame, shown_tag_);
+    frame_tags_.push_back({frame, shown_tag_, waited_idle_});
+    waited_idle_ = false;
     if (frame_tags_.size() > 64) frame_tags_.pop_front();
     target_->present(image);
     frame_times_.push_back(now);
@@ -609,19 +613,22 @@ class EditorApp {
   }
 
   // Frames the device finished (timed by a thread that waits on a timeline semaphore): the
-  // frame cadence, and for the first frame that shows a request's result, the latency from the
-  // input event that caused it.
+  // frame cadence while the loop runs without idling, and for the first frame that shows a
+  // request's result, the latency from the input event that caused it.
   void note_finished_frames() {
     for (const auto& completion : slots_->take_completions()) {
-      if (frame_previous_.time_since_epoch().count() != 0) {
+      std::uint64_t tag = 0;
+      bool after_idle = true;
+      for (const auto& record : frame_tags_) {
+        if (record.frame != completion.frame) continue;
+        tag = record.tag;
+        after_idle = record.after_idle;
+      }
+      if (frame_previous_.time_since_epoch().count() != 0 && !after_idle) {
         frame_intervals_.push_back(milliseconds_between(frame_previous_, completion.time));
         if (frame_intervals_.size() > 600) frame_intervals_.pop_front();
       }
       frame_previous_ = completion.time;
-      std::uint64_t tag = 0;
-      for (const auto& [frame, frame_tag] : frame_tags_) {
-        if (frame == completion.frame) tag = frame_tag;
-      }
       // Every input answered by this frame's solve or an earlier one is now on screen.
       while (!pending_requests_.empty() && pending_requests_.front().first <= tag) {
         latencies_.push_back(milliseconds_between(pending_requests_.front().second, completion.time));
@@ -650,11 +657,11 @@ class EditorApp {
     ImGui::Begin("hdeform", nullptr, ImGuiWindowFlags_NoMove | ImGuiWindowFlags_NoResize | ImGuiWindowFlags_NoCollapse);
     ImGui::TextWrapped("%s", mesh_name_.empty() ? "(loading)" : mesh_name_.c_str());
     if (document_) ImGui::Text("%ld vertices, %ld triangles", static_cast<long>(document_->vertex_count()), static_cast<long>(document_->rest().triangle_count()));
-    if (ImGui::Button("Open…")) open_dialog_ = true;
+    if (ImGui::Button("Open...")) open_dialog_ = true;
     ImGui::SameLine();
     if (ImGui::Button("Save")) save(output_path_);
     ImGui::SameLine();
-    if (ImGui::Button("Save as…")) save_dialog_ = true;
+    if (ImGui::Button("Save as...")) save_dialog_ = true;
     ImGui::SameLine();
     if (ImGui::Button("Help")) show_help_ = !show_help_;
     if (!document_) {
@@ -734,7 +741,7 @@ class EditorApp {
     }
     switch (document_->solver_state()) {
       case Document::SolverState::NoHandle: ImGui::TextWrapped("Paint a handle (3) to deform."); break;
-      case Document::SolverState::Building: ImGui::TextWrapped("%s…", document_->solver_message().c_str()); break;
+      case Document::SolverState::Building: ImGui::TextWrapped("%s...", document_->solver_message().c_str()); break;
       case Document::SolverState::Failed: ImGui::TextColored(ImVec4(1, 0.4f, 0.4f, 1), "%s", document_->solver_message().c_str()); break;
       case Document::SolverState::Ready: break;
     }
@@ -1392,7 +1399,13 @@ class EditorApp {
   Clock::time_point last_recovery_ = Clock::now();
 
   // Frame and latency figures.
-  std::deque<std::pair<std::uint64_t, std::uint64_t>> frame_tags_;  // frame number, geometry tag shown
+  struct FrameRecord {
+    std::uint64_t frame;  // as FrameSlots numbers them
+    std::uint64_t tag;    // the geometry it shows (the request it answers)
+    bool after_idle;      // the loop waited for events before it: its interval is not a frame time
+  };
+  std::deque<FrameRecord> frame_tags_;
+  bool waited_idle_ = false;
   std::uint64_t shown_tag_ = 0;
   Clock::time_point last_input_ = Clock::now();
   std::deque<Clock::time_point> frame_times_;
