@@ -109,9 +109,13 @@ void sample_interpolated_maps(const Eigen::Matrix<double, Eigen::Dynamic, kInter
 }
 
 Eigen::VectorXd barycenter_values(const Eigen::VectorXd& vertex_values, const Eigen::MatrixXi& triangles) {
-  Eigen::VectorXd values(triangles.rows());
+  return barycenter_values(Eigen::MatrixXd(vertex_values), triangles).col(0);
+}
+
+Eigen::MatrixXd barycenter_values(const Eigen::MatrixXd& vertex_values, const Eigen::MatrixXi& triangles) {
+  Eigen::MatrixXd values(triangles.rows(), vertex_values.cols());
   for (Eigen::Index t = 0; t < triangles.rows(); ++t) {
-    values(t) = (vertex_values(triangles(t, 0)) + vertex_values(triangles(t, 1)) + vertex_values(triangles(t, 2))) / 3.0;
+    values.row(t) = (vertex_values.row(triangles(t, 0)) + vertex_values.row(triangles(t, 1)) + vertex_values.row(triangles(t, 2))) / 3.0;
   }
   return values;
 }

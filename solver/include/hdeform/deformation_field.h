@@ -69,5 +69,7 @@ void sample_interpolated_maps(const Eigen::Matrix<double, Eigen::Dynamic, kInter
 
 // h at each triangle's barycenter: the mean of its corners.
 Eigen::VectorXd barycenter_values(const Eigen::VectorXd& vertex_values, const Eigen::MatrixXi& triangles);
+// The same for several values per vertex (one row each): one row per triangle.
+Eigen::MatrixXd barycenter_values(const Eigen::MatrixXd& vertex_values, const Eigen::MatrixXi& triangles);
 
 }  // namespace hdeform

@@ -1,0 +1,22 @@
+#pragma once
+// Triangle correspondence by harmonic coordinates (paper §6): each target triangle is matched to
+// the source triangle whose coordinate is nearest in the 2-norm — over all k components, or over
+// the target triangle's n largest components only (3 ≤ n ≤ k), which the paper found enough.
+// The map is not a bijection: source triangles may receive many target triangles or none.
+#include <Eigen/Core>
+#include <vector>
+
+namespace hdeform {
+
+struct TriangleMatch {
+  std::vector<int> source;        // per target triangle: the matched source triangle
+  std::vector<double> distance;   // ... and the distance between their coordinates
+};
+
+// `target` is m_t × k, `source` m_s × k (one coordinate per row). top_n = 0 compares all k
+// components; otherwise 3 ≤ top_n ≤ k (throws std::invalid_argument outside). Exact nearest
+// neighbours, by k-d trees (nanoflann): one over the source for all k components, or one per
+// distinct set of n components among the target triangles; queries run in parallel.
+TriangleMatch match_triangles(const Eigen::MatrixXd& target, const Eigen::MatrixXd& source, int top_n = 0);
+
+}  // namespace hdeform
