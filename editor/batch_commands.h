@@ -22,6 +22,8 @@ namespace hdeform::cli {
 std::unique_ptr<BatchCommand> make_edit_command();
 std::unique_ptr<BatchCommand> make_field_command();
 std::unique_ptr<BatchCommand> make_bench_command();
+std::unique_ptr<BatchCommand> make_transfer_command();
+std::unique_ptr<BatchCommand> make_correspondence_command();
 #ifdef HDEFORM_WITH_ENGINE
 std::unique_ptr<BatchCommand> make_render_command();
 std::unique_ptr<BatchCommand> make_gui_command();

@@ -81,6 +81,7 @@ void Progress::operator()(std::string_view message) const {
 }
 
 void Progress::warn(const std::vector<std::string>& warnings) const {
+  if (quiet_) return;
   for (const auto& line : warnings) std::cerr << "hdeform: warning: " << line << '\n';
 }
 

@@ -25,7 +25,8 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", "hdeform 0.1.0");
 
   std::vector<std::pair<CLI::App*, std::unique_ptr<cli::BatchCommand>>> commands;
-  for (auto make : {cli::make_edit_command, cli::make_field_command, cli::make_bench_command,
+  for (auto make : {cli::make_edit_command, cli::make_field_command, cli::make_transfer_command, cli::make_correspondence_command,
+                    cli::make_bench_command,
 #ifdef HDEFORM_WITH_ENGINE
                     cli::make_render_command, cli::make_gui_command,
 #endif

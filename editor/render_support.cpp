@@ -53,7 +53,7 @@ engine::UpAxis PictureOptions::up_axis() const {
   throw UsageError("--up must be z or y");
 }
 
-engine::Shot PictureOptions::shot(const engine::Bounds& bounds) const {
+engine::Shot PictureOptions::shot(const engine::Bounds& bounds, uint32_t panels) const {
   engine::Shot shot;
   unsigned width = 0, height = 0;
   char separator = 0;
@@ -62,6 +62,8 @@ engine::Shot PictureOptions::shot(const engine::Bounds& bounds) const {
       width > 16384 || height > 16384) {
     throw UsageError("--size must be WIDTHxHEIGHT, each 1 to 16384 (got '" + size + "')");
   }
+  if (panels > 1 && width / panels == 0) throw UsageError("--size is too narrow for " + std::to_string(panels) + " panels");
+  width /= std::max(panels, 1u);
   shot.width = width;
   shot.height = height;
   if (samples < 1) throw UsageError("--samples must be at least 1");
@@ -110,16 +112,33 @@ std::vector<uint32_t> vertex_classes(const VertexPartition& partition) {
 }
 
 nlohmann::json render_png(const PictureOptions& options, const engine::Scene& scene, const std::string& path) {
+  return render_png(options, std::span(&scene, 1), path);
+}
+
+nlohmann::json render_png(const PictureOptions& options, std::span<const engine::Scene> panels, const std::string& path) {
   const auto start = std::chrono::steady_clock::now();
-  const engine::Bounds bounds = scene.rest_bounds.radius() > 0.0f ? scene.rest_bounds : engine::Bounds::of(scene.positions);
-  const engine::Shot shot = options.shot(bounds);
   const engine::VulkanContext context(options.context());
-  const engine::Pixels pixels = engine::render_offscreen(context, scene, shot);
-  engine::write_png(path, pixels);
+  const auto count = static_cast<uint32_t>(panels.size());
+  engine::Pixels picture;
+  for (uint32_t p = 0; p < count; ++p) {
+    const engine::Scene& scene = panels[p];
+    const engine::Bounds bounds = scene.rest_bounds.radius() > 0.0f ? scene.rest_bounds : engine::Bounds::of(scene.positions);
+    const engine::Pixels pixels = engine::render_offscreen(context, scene, options.shot(bounds, count));
+    if (p == 0) {
+      picture.width = pixels.width * count;
+      picture.height = pixels.height;
+      picture.rgba.assign(std::size_t{4} * picture.width * picture.height, 0);
+    }
+    for (uint32_t y = 0; y < pixels.height; ++y) {
+      std::copy_n(pixels.rgba.begin() + std::ptrdiff_t{4} * y * pixels.width, std::size_t{4} * pixels.width,
+                  picture.rgba.begin() + std::ptrdiff_t{4} * (std::size_t{y} * picture.width + std::size_t{p} * pixels.width));
+    }
+  }
+  engine::write_png(path, picture);
   return {{"png", path},
           {"device", context.device_name()},
-          {"width", shot.width},
-          {"height", shot.height},
+          {"width", picture.width},
+          {"height", picture.height},
           {"validation_messages", context.validation_message_count()},
           {"render_ms", std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count()}};
 }

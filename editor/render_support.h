@@ -4,6 +4,7 @@
 #include <nlohmann/json.hpp>
 
 #include <optional>
+#include <span>
 #include <string>
 
 #include "hdeform/constraints.h"
@@ -29,8 +30,9 @@ struct PictureOptions {
 
   void add_options(CLI::App& command);
   engine::UpAxis up_axis() const;
-  // Throws UsageError for a malformed size, camera or range.
-  engine::Shot shot(const engine::Bounds& bounds) const;
+  // Throws UsageError for a malformed size, camera or range. With `panels`, the shot is one of
+  // that many side by side (its width the size's divided by them).
+  engine::Shot shot(const engine::Bounds& bounds, uint32_t panels = 1) const;
   engine::ContextOptions context() const;
 };
 
@@ -39,5 +41,7 @@ std::vector<uint32_t> vertex_classes(const VertexPartition& partition);
 
 // Renders `scene` to a PNG at `path`; returns figures for the JSON report (device, size, ms).
 nlohmann::json render_png(const PictureOptions& options, const engine::Scene& scene, const std::string& path);
+// Several scenes side by side, each framed on its own, sharing the --size width.
+nlohmann::json render_png(const PictureOptions& options, std::span<const engine::Scene> panels, const std::string& path);
 
 }  // namespace hdeform::cli

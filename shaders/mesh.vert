@@ -22,7 +22,9 @@ layout(location = 2) out vec2 light;
 
 void main() {
   field = field_value;
-  if (vertex_class == HD_CLASS_FREE) {
+  if ((vertex_class & HD_CLASS_RGB) != 0u) {
+    class_color = vec4(unpackUnorm4x8(vertex_class).rgb, 1.0);
+  } else if (vertex_class == HD_CLASS_FREE) {
     class_color = vec4(0.0);
   } else if (vertex_class == HD_CLASS_FIXED) {
     class_color = vec4(frame.class_colors[0].rgb, 1.0);

@@ -7,6 +7,7 @@
 #define HD_CLASS_FIXED 1u
 #define HD_CLASS_OUTSIDE 2u       // outside the region of interest (held in place, shown dimmed)
 #define HD_CLASS_HANDLE_FIRST 3u  // handle k is HD_CLASS_HANDLE_FIRST + k
+#define HD_CLASS_RGB 0x80000000u  // with this bit, the class carries its own colour: 0x80BBGGRR
 
 // Colours per class: fixed, outside, then one per handle (cycled beyond this many).
 #define HD_HANDLE_COLORS 8

@@ -6,7 +6,9 @@
 #include <fstream>
 #include <sstream>
 
+#include "hdeform/deformer.h"
 #include "hdeform/mesh_io.h"
+#include "hdeform/shapes.h"
 #include "test_support.h"
 
 namespace hdeform {
@@ -155,6 +157,92 @@ TEST_F(Cli, FieldWritesOneValuePerVertex) {
   EXPECT_EQ(values.back(), 0.0);
   EXPECT_GE(*std::min_element(values.begin(), values.end()), 0.0);
   EXPECT_LE(*std::max_element(values.begin(), values.end()), 1.0);
+}
+
+class TransferCli : public Cli {
+ protected:
+  void SetUp() override {
+    const auto shape = make_shape(ShapeKind::Cactus, 16);
+    write_obj(path("rest.obj"), shape.mesh);
+    rest = read_obj(path("rest.obj"));
+    Deformer deformer(rest, shape.demo_constraints);
+    Eigen::MatrixXd bent;
+    deformer.deform(std::span(&shape.demo_transform, 1), bent);
+    write_obj(path("bent.obj"), Mesh{bent, rest.triangles});
+    write_obj(path("moved.obj"), Mesh{rest.positions.rowwise() + Eigen::RowVector3d(0.5, 0.0, 0.25), rest.triangles});
+    std::string pairs = "# the same vertices on both sides\n";
+    for (Eigen::Index v = 0; v < rest.vertex_count(); v += rest.vertex_count() / 16) pairs += std::to_string(v) + " " + std::to_string(v) + "\n";
+    dir.write("markers.txt", pairs);
+  }
+  std::string transfer(const std::string& extra) const {
+    return "transfer --source-rest " + path("rest.obj") + " --target " + path("rest.obj") + " --markers " + path("markers.txt") + " " + extra;
+  }
+  Mesh rest;
+};
+
+TEST_F(TransferCli, WritesEveryPoseAndReportsCountsTimingsAndErrors) {
+  const auto result = run(dir, transfer("--source-pose " + path("bent.obj") + " " + path("moved.obj") + " --out-dir " + path("out") +
+                                        " --expected " + path("bent.obj") + " " + path("moved.obj")));
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  const auto report = nlohmann::json::parse(result.out);
+  EXPECT_EQ(report["command"], "transfer");
+  EXPECT_EQ(report["method"], "correspondence");
+  EXPECT_EQ(report["poses"], 2);
+  EXPECT_EQ(report["markers"], 17);
+  EXPECT_EQ(report["factorizations"], 3);
+  EXPECT_EQ(report["mismatched_triangles"], 0);
+  EXPECT_GT(report["setup_ms"]["correspondence"].get<double>(), 0.0);
+  EXPECT_GT(report["pose_ms"]["median"].get<double>(), 0.0);
+  EXPECT_LT(report["mean_error"].get<double>(), 1e-9);
+  // Source and target are one mesh with markers on the same vertices: the poses come back.
+  const double diagonal = (rest.positions.colwise().maxCoeff() - rest.positions.colwise().minCoeff()).norm();
+  EXPECT_LE((read_obj(path("out/bent.obj")).positions - read_obj(path("bent.obj")).positions).cwiseAbs().maxCoeff(), 1e-9 * diagonal);
+  EXPECT_LE((read_obj(path("out/moved.obj")).positions - read_obj(path("moved.obj")).positions).cwiseAbs().maxCoeff(), 1e-9 * diagonal);
+  EXPECT_TRUE(contains(result.err, "pose 2/2"));  // progress through the sequence
+
+  const auto interpolated = run(dir, transfer("--method interpolation --source-pose " + path("bent.obj") + " --out-dir " + path("interp")));
+  ASSERT_EQ(interpolated.exit_code, 0) << interpolated.err;
+  EXPECT_EQ(nlohmann::json::parse(interpolated.out)["factorizations"], 2);
+  EXPECT_TRUE(std::filesystem::exists(path("interp/bent.obj")));
+}
+
+TEST_F(TransferCli, BadInputExitsWithOneAndWritesNothing) {
+  dir.write("bad-markers.txt", "0 0\n1 999999\n2 2\n");
+  auto result = run(dir, "transfer --source-rest " + path("rest.obj") + " --target " + path("rest.obj") + " --markers " + path("bad-markers.txt") +
+                             " --source-pose " + path("bent.obj") + " --out-dir " + path("out"));
+  EXPECT_EQ(result.exit_code, 1);
+  EXPECT_TRUE(contains(result.err, "bad-markers.txt:2: target vertex 999999 out of range")) << result.err;
+  EXPECT_FALSE(std::filesystem::exists(path("out")));
+
+  const auto sphere = make_shape(ShapeKind::Sphere, 12);
+  write_obj(path("sphere.obj"), sphere.mesh);
+  result = run(dir, transfer("--source-pose " + path("bent.obj") + " " + path("sphere.obj") + " --out-dir " + path("out")));
+  EXPECT_EQ(result.exit_code, 1);
+  EXPECT_TRUE(contains(result.err, "sphere.obj: a pose must have the source rest mesh's vertices and triangles")) << result.err;
+  EXPECT_FALSE(std::filesystem::exists(path("out/bent.obj")));
+
+  EXPECT_EQ(run(dir, transfer("--source-column 3 --source-pose " + path("bent.obj") + " --out-dir " + path("out"))).exit_code, 2);
+  EXPECT_EQ(run(dir, transfer("--method nearest --source-pose " + path("bent.obj") + " --out-dir " + path("out"))).exit_code, 2);
+  // Two poses named alike would overwrite each other; a pose's own folder would be overwritten.
+  std::filesystem::create_directories(path("other"));
+  std::filesystem::copy_file(path("bent.obj"), path("other/bent.obj"));
+  EXPECT_EQ(run(dir, transfer("--source-pose " + path("bent.obj") + " " + path("other/bent.obj") + " --out-dir " + path("out"))).exit_code, 2);
+  result = run(dir, transfer("--source-pose " + path("bent.obj") + " --out-dir " + dir.path().string()));
+  EXPECT_EQ(result.exit_code, 2);
+  EXPECT_TRUE(contains(result.err, "refusing to overwrite"));
+}
+
+TEST_F(TransferCli, CorrespondenceWritesTheMap) {
+  const auto result = run(dir, "correspondence --source-rest " + path("rest.obj") + " --target " + path("rest.obj") + " --markers " +
+                                   path("markers.txt") + " --source-column 2 --out " + path("map.txt"));
+  ASSERT_EQ(result.exit_code, 0) << result.err;
+  EXPECT_EQ(nlohmann::json::parse(result.out)["source_triangles_matched"], rest.triangle_count());
+  std::ifstream in(path("map.txt"));
+  std::string line;
+  std::getline(in, line);  // the header comment
+  Eigen::Index count = 0;
+  for (long target = 0, source = 0; in >> target >> source && std::getline(in, line); ++count) EXPECT_EQ(target, source);
+  EXPECT_EQ(count, rest.triangle_count());
 }
 
 }  // namespace

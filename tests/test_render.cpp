@@ -179,6 +179,28 @@ TEST_F(Render, BackFacesOfAnOpenMeshAreTinted) {
   EXPECT_GT(back.x(), back.y());  // the tint is purple-red
 }
 
+TEST_F(Render, VerticesWithTheirOwnColourShowIt) {
+  // The square's left half in one colour, its right half in another (the correspondence picture
+  // colours each triangle this way).
+  engine::Scene scene;
+  const Mesh plane = test::planar_grid(8);
+  scene.positions = plane.positions;
+  scene.triangles = plane.triangles;
+  scene.up = engine::UpAxis::Y;
+  const Eigen::Vector3f orange(1.0f, 0.5f, 0.0f), teal(0.0f, 0.5f, 0.5f);
+  for (Eigen::Index v = 0; v < plane.vertex_count(); ++v) scene.classes.push_back(engine::color_class(plane.positions(v, 0) < 0.5 ? orange : teal));
+  engine::Shot shot;
+  shot.width = shot.height = 64;
+  shot.settings.ground = false;
+  shot.settings.lighting = false;
+  auto camera = engine::Camera::three_quarter_front(engine::Bounds::of(plane.positions), engine::UpAxis::Y, 1.0f);
+  camera.yaw = camera.pitch = 0.0f;
+  shot.camera = camera;
+  const engine::Pixels image = engine::render_offscreen(*context, scene, shot);
+  EXPECT_LE((test::pixel(image, 16, 32) - orange).cwiseAbs().maxCoeff(), 0.02f);
+  EXPECT_LE((test::pixel(image, 48, 32) - teal).cwiseAbs().maxCoeff(), 0.02f);
+}
+
 TEST(GeometryExchange, TheReaderGetsTheNewestPublicationWithoutWaiting) {
   engine::GeometryExchange exchange(2);
   EXPECT_EQ(exchange.acquire(), nullptr);

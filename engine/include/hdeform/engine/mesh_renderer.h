@@ -37,6 +37,11 @@ struct RenderSettings {
 inline uint32_t fixed_class() { return HD_CLASS_FIXED; }
 inline uint32_t outside_class() { return HD_CLASS_OUTSIDE; }
 inline uint32_t handle_class(std::size_t handle) { return HD_CLASS_HANDLE_FIRST + static_cast<uint32_t>(handle); }
+// A vertex drawn in its own colour (components in [0, 1]), shown with the classes.
+inline uint32_t color_class(const Eigen::Vector3f& rgb) {
+  const Eigen::Vector3f clamped = rgb.cwiseMax(0.0f).cwiseMin(1.0f) * 255.0f + Eigen::Vector3f::Constant(0.5f);
+  return HD_CLASS_RGB | static_cast<uint32_t>(clamped.x()) | (static_cast<uint32_t>(clamped.y()) << 8) | (static_cast<uint32_t>(clamped.z()) << 16);
+}
 
 struct Marker {
   Eigen::Vector3f position;
