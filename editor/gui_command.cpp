@@ -30,6 +30,12 @@ class GuiCommand final : public BatchCommand {
     command->add_option("--recovery-file", options_.recovery_file, "Crash-recovery file (default: $HDEFORM_RECOVERY_FILE or ~/.local/state/hdeform)");
     command->add_option("--restore", options_.restore, "After a crash: ask, yes or no")->capture_default_str();
     command->add_option("--screenshot-dir", options_.screenshot_dir, "Where F12 writes screenshots")->capture_default_str();
+    command->add_option("--transfer-source", options_.transfer.source_rest, "Transfer mode: the source mesh at rest (OBJ)");
+    command->add_option("--transfer-target", options_.transfer.target, "Transfer mode: the target mesh (OBJ)");
+    command->add_option("--source-pose", options_.transfer.poses, "Transfer mode: source poses (OBJ; * and ? match files in a folder)");
+    command->add_option("--markers", options_.transfer.markers, "Transfer mode: marker pairs, loaded if the file exists; where Ctrl+S saves them");
+    command->add_option("--source-column", options_.transfer.source_column, "Transfer mode: which marker column is the source's, 1 or 2")
+        ->capture_default_str();
     command->add_option("--benchmark-drag", options_.benchmark_drag_seconds, "Drag the first handle for this many seconds, report frame times and latency, quit");
     command->add_option("--benchmark-out", options_.benchmark_out, "Also write the benchmark report to this file");
     return command;
@@ -40,6 +46,10 @@ class GuiCommand final : public BatchCommand {
     if (!options_.session.empty() && !options_.mesh.empty()) throw UsageError("give a mesh or --session, not both");
     if (options_.transforms.size() > options_.handles.size()) throw UsageError("more --transform than --handle");
     if (options_.up != "z" && options_.up != "y") throw UsageError("--up must be z or y");
+    if (options_.transfer.source_column != 1 && options_.transfer.source_column != 2) throw UsageError("--source-column must be 1 or 2");
+    if (options_.transfer.source_rest.empty() != options_.transfer.target.empty()) {
+      throw UsageError("transfer mode needs both --transfer-source and --transfer-target");
+    }
     return run_editor(options_);
   }
 

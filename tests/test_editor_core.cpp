@@ -3,6 +3,7 @@
 #include "document.h"
 #include "hdeform/engine/geometry_exchange.h"
 #include "hdeform/shapes.h"
+#include "marker_editor.h"
 #include "mesh_picker.h"
 #include "selection.h"
 #include "test_support.h"
@@ -172,6 +173,40 @@ TEST_F(DocumentTest, ARebuildRunsOffTheCallingThreadAndTheStateSaysSo) {
   EXPECT_EQ(document->solver_state(), cli::Document::SolverState::Ready);
   // A handle that holds every vertex of a component but no fixed vertex: still solvable (rigid).
   EXPECT_NE(document->field(), nullptr);
+}
+
+TEST(MarkerEditor, PairsAddMoveRemoveWithUndoAndOneMarkerPerVertex) {
+  cli::MarkerEditor markers;
+  EXPECT_FALSE(markers.add(10, 20).has_value());
+  EXPECT_FALSE(markers.add(11, 21).has_value());
+  const auto taken = markers.add(10, 30);
+  ASSERT_TRUE(taken.has_value());
+  EXPECT_EQ(*taken, "source vertex 10 already has marker 1");
+  EXPECT_EQ(*markers.add(12, 21), "target vertex 21 already has marker 2");
+  EXPECT_EQ(markers.size(), 2u);
+  EXPECT_EQ(markers.find(cli::MarkerSide::Target, 21), 1);
+
+  EXPECT_FALSE(markers.move(0, cli::MarkerSide::Target, 25).has_value());
+  EXPECT_EQ(markers.pairs().target, (std::vector<int>{25, 21}));
+  EXPECT_EQ(*markers.move(0, cli::MarkerSide::Target, 21), "target vertex 21 already has marker 2");
+  EXPECT_FALSE(markers.move(0, cli::MarkerSide::Target, 25).has_value());  // onto itself: nothing to do
+  markers.remove(1);
+  EXPECT_EQ(markers.pairs().source, (std::vector<int>{10}));
+
+  const auto version = markers.version();
+  ASSERT_TRUE(markers.undo());  // the removal
+  EXPECT_EQ(markers.pairs().source, (std::vector<int>{10, 11}));
+  ASSERT_TRUE(markers.undo());  // the move
+  EXPECT_EQ(markers.pairs().target, (std::vector<int>{20, 21}));
+  EXPECT_NE(markers.version(), version);  // results computed before are stale
+  ASSERT_TRUE(markers.redo());
+  EXPECT_EQ(markers.pairs().target, (std::vector<int>{25, 21}));
+  // A new change after undo drops the redo branch.
+  EXPECT_FALSE(markers.add(13, 23).has_value());
+  EXPECT_FALSE(markers.can_redo());
+  while (markers.undo()) {
+  }
+  EXPECT_EQ(markers.size(), 0u);
 }
 
 }  // namespace

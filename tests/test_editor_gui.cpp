@@ -21,6 +21,8 @@
 #include "hdeform/deformer.h"
 #include "hdeform/engine/image_io.h"
 #include "hdeform/engine/offscreen.h"
+#include "hdeform/errors.h"
+#include "hdeform/marker_io.h"
 #include "hdeform/mesh_io.h"
 #include "hdeform/shapes.h"
 #include "render_support.h"
@@ -404,6 +406,76 @@ TEST_F(EditorGui, AfterKillNineTheNextStartRestoresTheStateBeforeTheKill) {
   double moved = 0.0;
   for (const int v : restored.current.handles[0].vertices) moved = std::max(moved, (result.positions.row(v) - rest.positions.row(v)).norm());
   EXPECT_GT(moved, 0.0) << "the restored mesh shows the drag";
+}
+
+TEST_F(EditorGui, TransferModeMarkersUndoSaveAndCompute) {
+  // The cactus as both source and target, one bent pose: clicking the same vertex in both views
+  // makes a pair of identical vertices.
+  Deformer deformer(rest, shape.demo_constraints);
+  Eigen::MatrixXd bent;
+  deformer.deform(std::span(&shape.demo_transform, 1), bent);
+  write_obj(dir.file("bent.obj"), Mesh{bent, rest.triangles});
+  const std::string markers = dir.file("markers.txt").string();
+  Editor editor({"--size", std::to_string(kWidth) + "x" + std::to_string(kHeight), "--recovery-file", dir.file("recovery.json").string(),
+                 "--restore", "no", "--validation", "--transfer-source", dir.file("cactus.obj").string(), "--transfer-target",
+                 dir.file("cactus.obj").string(), "--source-pose", dir.file("bent.obj").string(), "--markers", markers});
+  editor.wait_for("transfer opened");
+  ASSERT_NO_FATAL_FAILURE(find_window());
+
+  // The two views share the window right of the panel, each framed like the offscreen default.
+  const float view_width = (kWidth - kPanelWidth) / 2.0f;
+  const auto bounds = engine::Bounds::of(rest.positions);
+  const auto camera = engine::Camera::three_quarter_front(bounds, engine::UpAxis::Z, view_width / kHeight);
+  auto pixel = [&](int side, int vertex) {
+    const Eigen::Vector4f clip = camera.view_projection(view_width / kHeight) * Eigen::Vector4f(rest.positions.row(vertex).transpose().cast<float>().homogeneous());
+    return Eigen::Vector2f(kPanelWidth + side * view_width + (clip.x() / clip.w() * 0.5f + 0.5f) * view_width, (clip.y() / clip.w() * 0.5f + 0.5f) * kHeight);
+  };
+  // Four vertices facing the camera, far apart: the tips of the arms, the top, the trunk.
+  View side_view{camera};
+  std::vector<int> aimed;
+  for (const auto& region : {shape.demo_constraints.handles[0], shape.demo_constraints.fixed}) aimed.push_back(facing_vertex(rest, region, side_view));
+  for (const double height : {0.95, 0.6}) {
+    std::vector<int> band;
+    const double low = rest.positions.col(2).minCoeff(), high = rest.positions.col(2).maxCoeff();
+    for (Eigen::Index v = 0; v < rest.vertex_count(); ++v) {
+      if (std::abs(rest.positions(v, 2) - (low + height * (high - low))) < 0.02 * (high - low)) band.push_back(static_cast<int>(v));
+    }
+    aimed.push_back(facing_vertex(rest, band, side_view));
+  }
+  for (const int vertex : aimed) {
+    const auto before = editor.event_count();
+    move_to(pixel(0, vertex));
+    xdotool("click 1");
+    std::this_thread::sleep_for(250ms);
+    move_to(pixel(1, vertex));
+    xdotool("click 1");
+    const json added = editor.wait_for("marker added", 30s, before);
+    EXPECT_EQ(added["source"], added["target"]) << "the same point of the same mesh in both views";
+    EXPECT_LT((rest.positions.row(added["source"].get<int>()) - rest.positions.row(vertex)).norm(), 0.05 * (bounds.max - bounds.min).norm());
+  }
+  auto saved_markers = [&] {
+    const auto before = editor.event_count();
+    press("ctrl+s");
+    editor.wait_for("markers saved", 30s, before);
+    return read_marker_pairs(markers, SourceColumn::First, rest.vertex_count(), rest.vertex_count());
+  };
+  const MarkerPairs four = saved_markers();
+  ASSERT_EQ(four.size(), 4u);
+  press("ctrl+z");
+  const MarkerPairs three = saved_markers();
+  ASSERT_EQ(three.size(), 3u);
+  EXPECT_EQ(three.source, std::vector<int>(four.source.begin(), four.source.begin() + 3));
+  press("ctrl+shift+z");
+  EXPECT_EQ(saved_markers().source, four.source);
+
+  const auto before = editor.event_count();
+  press("F5");
+  const json computed = editor.wait_for("transfer computed", 60s, before);
+  EXPECT_EQ(computed["markers"], 4);
+  EXPECT_EQ(computed["poses"], 1);
+  EXPECT_EQ(computed["factorizations"], 3);  // the coordinates on each mesh and the target's Poisson system
+  EXPECT_EQ(computed["mismatched_triangles"], 0);
+  quit(editor);
 }
 
 }  // namespace

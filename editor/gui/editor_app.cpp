@@ -22,6 +22,8 @@
 #include "document.h"
 #include "gui/gizmo.h"
 #include "gui/recovery.h"
+#include "gui/transfer_view.h"
+#include "gui/widgets.h"
 #include "hdeform/atomic_file.h"
 #include "hdeform/constraint_io.h"
 #include "hdeform/engine/frame_slots.h"
@@ -96,6 +98,11 @@ constexpr std::pair<const char*, const char*> kShortcuts[] = {
     {"W / H / K", "wireframe / harmonic field / vertex classes"},
     {"F12", "screenshot of the view (without the panel)"},
     {"F1", "this help"},
+    {"Ctrl+T", "transfer mode: source and target side by side"},
+    {"Transfer: click, click", "a vertex on one mesh, then its counterpart: a marker pair"},
+    {"Transfer: drag / Del / Esc", "move a marker / delete the selected pair / cancel"},
+    {"Transfer: F5 / Space / Left, Right", "compute / play, pause / previous, next pose"},
+    {"Transfer: Ctrl+S, Ctrl+Z", "save the markers, undo a marker change"},
     {"Ctrl+Q", "quit"},
 };
 
@@ -123,7 +130,7 @@ class EditorApp {
     create_renderer();
     start_from_options();
     while (!quit_) {
-      const bool busy = dragging_ || loading_ || benchmark_active_ || screenshot_requested_ ||
+      const bool busy = dragging_ || loading_ || benchmark_active_ || screenshot_requested_ || (transfer_ && transfer_->busy()) ||
                         (document_ && (document_->solver_state() == Document::SolverState::Building ||
                                        document_->last_published_request() != shown_tag_));
       if (busy) glfwPollEvents();
@@ -143,6 +150,8 @@ class EditorApp {
   }
 
  private:
+  enum class Mode { Edit, Transfer };
+
   // ---- set-up --------------------------------------------------------------------------------
 
   void create_window() {
@@ -170,7 +179,7 @@ class EditorApp {
     });
     glfwSetDropCallback(window_, [](GLFWwindow* window, int count, const char** paths) {
       auto* app = static_cast<EditorApp*>(glfwGetWindowUserPointer(window));
-      if (count > 0) app->dropped_path_ = paths[0];
+      app->dropped_paths_.assign(paths, paths + count);
     });
   }
 
@@ -200,6 +209,7 @@ class EditorApp {
     slots_->enable_completion_times();
     latch_solves_ = options_.pacing == "latch" || (options_.pacing == "auto" && context_->is_cpu_device());
     renderer_ = std::make_unique<engine::MeshRenderer>(*context_, target_->render_pass(), target_->format(), slots_->count());
+    transfer_ = std::make_unique<TransferView>(*context_, target_->render_pass(), target_->format(), slots_->count(), up_axis());
 
     IMGUI_CHECKVERSION();
     ImGui::CreateContext();
@@ -240,7 +250,14 @@ class EditorApp {
     return context_->is_cpu_device() ? 1 : engine::kFramesInFlight;
   }
 
+  void set_mode(Mode mode) {
+    if (mode == mode_) return;
+    mode_ = mode;
+    glfwSetWindowTitle(window_, mode_ == Mode::Transfer ? "hdeform — transfer" : ("hdeform — " + mesh_name_).c_str());
+  }
+
   void shutdown() {
+    transfer_.reset();
     if (context_) vkDeviceWaitIdle(context_->device());
     document_.reset();  // stops its threads before the publisher goes
     if (load_thread_.joinable()) load_thread_.join();
@@ -273,6 +290,10 @@ class EditorApp {
   // ---- documents ------------------------------------------------------------------------------
 
   void start_from_options() {
+    if (!options_.transfer.source_rest.empty() || !options_.transfer.target.empty()) {
+      set_mode(Mode::Transfer);
+      transfer_->open(options_.transfer);
+    }
     recovery_ = std::make_unique<RecoveryWriter>(options_.recovery_file.empty() ? default_recovery_path() : options_.recovery_file);
     if (std::filesystem::exists(recovery_->path())) {
       if (options_.restore == "yes") return restore_recovery();
@@ -515,10 +536,12 @@ class EditorApp {
     frame_keys_.swap(queued_keys_);
     queued_keys_.clear();
     finish_load();
-    if (!dropped_path_.empty()) {
-      open_path(dropped_path_);
-      dropped_path_.clear();
+    if (!dropped_paths_.empty()) {
+      if (mode_ == Mode::Transfer) transfer_->drop(dropped_paths_, ImGui::GetIO().MousePos);
+      else open_path(dropped_paths_.front());
+      dropped_paths_.clear();
     }
+    transfer_->poll();
     if (document_) {
       const auto before = document_->solver_state();
       document_->poll();
@@ -537,8 +560,13 @@ class EditorApp {
     draw_panel();
     draw_dialogs();
     handle_keys();
-    handle_mouse();
-    draw_overlays();
+    if (mode_ == Mode::Transfer) {
+      transfer_->handle_mouse();
+      if (!screenshot_requested_) transfer_->draw_overlays();
+    } else {
+      handle_mouse();
+      draw_overlays();
+    }
     ImGui::Render();
     sync_view();
     render(ImGui::GetDrawData());
@@ -591,10 +619,15 @@ class EditorApp {
     uint32_t image = 0;
     if (!target_->acquire(slot.image_available, image)) return;  // minimised or rebuilt: draw next time
     const VkExtent2D extent = target_->extent();
-    renderer_->prepare(slot.index, camera_, settings_, extent);
-    shown_tag_ = renderer_->drawn_geometry_tag();
+    if (mode_ == Mode::Transfer) {
+      transfer_->prepare(slot.index, extent, kPanelWidth * ImGui::GetIO().DisplayFramebufferScale.x);
+    } else {
+      renderer_->prepare(slot.index, camera_, settings_, extent);
+      shown_tag_ = renderer_->drawn_geometry_tag();
+    }
     target_->begin(slot.commands, image);
-    renderer_->record(slot.commands, slot.index, extent);
+    if (mode_ == Mode::Transfer) transfer_->record(slot.commands, slot.index);
+    else renderer_->record(slot.commands, slot.index, extent);
     const bool screenshot = screenshot_requested_;
     if (!screenshot) ImGui_ImplVulkan_RenderDrawData(draw_data, slot.commands);
     target_->end(slot.commands, image, screenshot);
@@ -655,6 +688,17 @@ class EditorApp {
     ImGui::SetNextWindowPos(ImVec2(0, 0));
     ImGui::SetNextWindowSize(ImVec2(kPanelWidth, ImGui::GetIO().DisplaySize.y));
     ImGui::Begin("hdeform", nullptr, ImGuiWindowFlags_NoMove | ImGuiWindowFlags_NoResize | ImGuiWindowFlags_NoCollapse);
+    int mode = mode_ == Mode::Transfer ? 1 : 0;
+    ImGui::RadioButton("Edit", &mode, 0);
+    ImGui::SameLine();
+    ImGui::RadioButton("Transfer (Ctrl+T)", &mode, 1);
+    set_mode(mode == 1 ? Mode::Transfer : Mode::Edit);
+    ImGui::Separator();
+    if (mode_ == Mode::Transfer) {
+      transfer_->draw_panel(pressed(GLFW_KEY_ESCAPE));
+      ImGui::End();
+      return;
+    }
     ImGui::TextWrapped("%s", mesh_name_.empty() ? "(loading)" : mesh_name_.c_str());
     if (document_) ImGui::Text("%ld vertices, %ld triangles", static_cast<long>(document_->vertex_count()), static_cast<long>(document_->rest().triangle_count()));
     if (ImGui::Button("Open...")) open_dialog_ = true;
@@ -796,14 +840,19 @@ class EditorApp {
       }
       ImGui::End();
     }
-    const bool busy = loading_ || (document_ && document_->solver_state() == Document::SolverState::Building);
-    const double busy_for = loading_ ? seconds_since(load_started_) : (build_started_ != Clock::time_point{} ? seconds_since(build_started_) : 0.0);
+    const auto transfer_work = transfer_->work();
+    const bool busy = loading_ || (document_ && document_->solver_state() == Document::SolverState::Building) || transfer_work;
+    const double busy_for = transfer_work ? transfer_work->second
+                            : loading_    ? seconds_since(load_started_)
+                                          : (build_started_ != Clock::time_point{} ? seconds_since(build_started_) : 0.0);
     if (busy && busy_for > kProgressDelay) {
       const ImVec2 size = ImGui::GetIO().DisplaySize;
       ImGui::SetNextWindowPos(ImVec2(size.x * 0.5f + kPanelWidth * 0.5f, size.y * 0.5f), ImGuiCond_Always, ImVec2(0.5f, 0.5f));
       ImGui::Begin("Working", nullptr, ImGuiWindowFlags_NoDecoration | ImGuiWindowFlags_AlwaysAutoResize | ImGuiWindowFlags_NoInputs);
       const char* spinner = "|/-\\";
-      const std::string what = loading_ ? "Loading " + (mesh_name_.empty() ? std::string("the mesh") : mesh_name_) : document_->solver_message();
+      const std::string what = transfer_work ? transfer_work->first
+                               : loading_    ? "Loading " + (mesh_name_.empty() ? std::string("the mesh") : mesh_name_)
+                                             : document_->solver_message();
       ImGui::Text("%c %s  (%.1f s)", spinner[static_cast<int>(busy_for * 8) % 4], what.c_str(), busy_for);
       ImGui::End();
     }
@@ -829,10 +878,8 @@ class EditorApp {
       }
       ImGui::EndPopup();
     }
-    path_dialog("Open", open_dialog_, [this](const std::string& path) { open_path(path); });
-    path_dialog("Save as", save_dialog_, [this](const std::string& path) {
-      if (save(path)) output_path_ = path;
-    });
+    if (const auto path = path_prompt("Open", open_dialog_, path_buffer_, pressed(GLFW_KEY_ESCAPE))) open_path(*path);
+    if (const auto path = path_prompt("Save as", save_dialog_, path_buffer_, pressed(GLFW_KEY_ESCAPE)); path && save(*path)) output_path_ = *path;
     if (quit_dialog_) ImGui::OpenPopup("Quit");
     if (ImGui::BeginPopupModal("Quit", nullptr, ImGuiWindowFlags_AlwaysAutoResize)) {
       ImGui::Text("Quit without saving the changes?");
@@ -844,25 +891,6 @@ class EditorApp {
       }
       ImGui::EndPopup();
     }
-  }
-
-  template <class Act>
-  void path_dialog(const char* title, bool& open, Act act) {
-    if (open) ImGui::OpenPopup(title);
-    if (!ImGui::BeginPopupModal(title, nullptr, ImGuiWindowFlags_AlwaysAutoResize)) return;
-    ImGui::SetNextItemWidth(520);
-    const bool entered = ImGui::InputText("Path", path_buffer_, sizeof path_buffer_, ImGuiInputTextFlags_EnterReturnsTrue);
-    if (ImGui::Button(title) || entered) {
-      open = false;
-      ImGui::CloseCurrentPopup();
-      act(std::string(path_buffer_));
-    }
-    ImGui::SameLine();
-    if (ImGui::Button("Cancel") || pressed(GLFW_KEY_ESCAPE)) {
-      open = false;
-      ImGui::CloseCurrentPopup();
-    }
-    ImGui::EndPopup();
   }
 
   // ---- actions ------------------------------------------------------------------------------------
@@ -968,17 +996,22 @@ class EditorApp {
     const ImGuiIO& io = ImGui::GetIO();
     if (io.WantCaptureKeyboard) return;
     constexpr int kCtrl = GLFW_MOD_CONTROL;
+    if (pressed(GLFW_KEY_T, kCtrl)) set_mode(mode_ == Mode::Transfer ? Mode::Edit : Mode::Transfer);
+    if (pressed(GLFW_KEY_Q, kCtrl)) request_quit();
+    if (pressed(GLFW_KEY_F1)) show_help_ = !show_help_;
+    if (pressed(GLFW_KEY_F12)) screenshot_requested_ = true;
+    if (mode_ == Mode::Transfer) {
+      for (const auto& press : frame_keys_) transfer_->handle_key(press.key, press.mods);
+      return;
+    }
     if (pressed(GLFW_KEY_Z, kCtrl)) undo();
     if (pressed(GLFW_KEY_Z, kCtrl | GLFW_MOD_SHIFT) || pressed(GLFW_KEY_Y, kCtrl)) redo();
     if (pressed(GLFW_KEY_S, kCtrl)) save(output_path_);
     if (pressed(GLFW_KEY_S, kCtrl | GLFW_MOD_SHIFT)) save_dialog_ = true;
     if (pressed(GLFW_KEY_O, kCtrl)) open_dialog_ = true;
-    if (pressed(GLFW_KEY_Q, kCtrl)) request_quit();
     if (pressed(GLFW_KEY_DELETE, kCtrl) && document_ && document_->handle_count() > 0) {
       finish_action([this] { document_->remove_handle(document_->active_handle()); });
     }
-    if (pressed(GLFW_KEY_F1)) show_help_ = !show_help_;
-    if (pressed(GLFW_KEY_F12)) screenshot_requested_ = true;
     if (!document_) return;
     if (pressed(GLFW_KEY_F)) adjust_camera(false);
     if (pressed(GLFW_KEY_1)) tool_ = Tool::PaintRoi;
@@ -1366,7 +1399,9 @@ class EditorApp {
   char path_buffer_[1024] = {};
   std::string status_;
   std::string error_message_;
-  std::string dropped_path_;
+  std::vector<std::string> dropped_paths_;
+  Mode mode_ = Mode::Edit;
+  std::unique_ptr<TransferView> transfer_;
 
   Tool tool_ = Tool::Grab;
   TwistAxis twist_axis_ = TwistAxis::Z;

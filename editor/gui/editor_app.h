@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "gui/transfer_view.h"
+
 namespace hdeform::cli {
 
 struct EditorOptions {
@@ -28,6 +30,7 @@ struct EditorOptions {
   std::string screenshot_dir = ".";
   double benchmark_drag_seconds = 0.0;  // > 0: drag the first handle for this long, report, exit
   std::string benchmark_out;            // the benchmark's JSON report (also printed)
+  TransferInputs transfer;              // a source or target given: start in transfer mode
 };
 
 // Runs until the window closes; returns the exit code. Throws UsageError or InputError for bad

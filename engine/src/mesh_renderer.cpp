@@ -332,7 +332,8 @@ void MeshRenderer::set_markers(std::span<const Marker> markers) {
   ++markers_version_;
 }
 
-void MeshRenderer::prepare(uint32_t frame_index, const Camera& camera, const RenderSettings& settings, VkExtent2D extent) {
+void MeshRenderer::prepare(uint32_t frame_index, const Camera& camera, const RenderSettings& settings, VkRect2D area) {
+  const VkExtent2D extent = area.extent;
   Frame& frame = frames_[frame_index];
   frame.settings = settings;
   frame.has_geometry = false;
@@ -398,10 +399,11 @@ void MeshRenderer::prepare(uint32_t frame_index, const Camera& camera, const Ren
   std::memcpy(frame.uniforms.mapped, &u, sizeof u);
 }
 
-void MeshRenderer::record(VkCommandBuffer commands, uint32_t frame_index, VkExtent2D extent) const {
+void MeshRenderer::record(VkCommandBuffer commands, uint32_t frame_index, VkRect2D area) const {
   const Frame& frame = frames_[frame_index];
-  const VkViewport viewport{0.0f, 0.0f, static_cast<float>(extent.width), static_cast<float>(extent.height), 0.0f, 1.0f};
-  const VkRect2D scissor{{0, 0}, extent};
+  const VkViewport viewport{static_cast<float>(area.offset.x), static_cast<float>(area.offset.y), static_cast<float>(area.extent.width),
+                            static_cast<float>(area.extent.height), 0.0f, 1.0f};
+  const VkRect2D scissor = area;
   vkCmdSetViewport(commands, 0, 1, &viewport);
   vkCmdSetScissor(commands, 0, 1, &scissor);
   vkCmdBindDescriptorSets(commands, VK_PIPELINE_BIND_POINT_GRAPHICS, pipeline_layout_, 0, 1, &frame.descriptor, 0, nullptr);

@@ -56,10 +56,13 @@ MarkerPairs read_marker_pairs(const std::filesystem::path& path, SourceColumn so
   return markers;
 }
 
-void write_marker_pairs(const std::filesystem::path& path, const MarkerPairs& markers) {
+void write_marker_pairs(const std::filesystem::path& path, const MarkerPairs& markers, SourceColumn source_column) {
+  const bool source_first = source_column == SourceColumn::First;
   write_file_atomically(path, [&](std::ostream& out) {
-    out << "# source target (0-based vertex indices)\n";
-    for (std::size_t k = 0; k < markers.size(); ++k) out << markers.source[k] << ' ' << markers.target[k] << '\n';
+    out << (source_first ? "# source target" : "# target source") << " (0-based vertex indices)\n";
+    for (std::size_t k = 0; k < markers.size(); ++k) {
+      out << (source_first ? markers.source[k] : markers.target[k]) << ' ' << (source_first ? markers.target[k] : markers.source[k]) << '\n';
+    }
   });
 }
 

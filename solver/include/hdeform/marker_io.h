@@ -28,7 +28,8 @@ enum class SourceColumn { First, Second };
 MarkerPairs read_marker_pairs(const std::filesystem::path& path, SourceColumn source_column, Eigen::Index source_vertex_count,
                               Eigen::Index target_vertex_count);
 
-// Writes one "source target" pair per line (the source first), atomically.
-void write_marker_pairs(const std::filesystem::path& path, const MarkerPairs& markers);
+// Writes one pair per line, atomically, the source in `source_column` (so that a file read with
+// a column choice is written back the same way).
+void write_marker_pairs(const std::filesystem::path& path, const MarkerPairs& markers, SourceColumn source_column = SourceColumn::First);
 
 }  // namespace hdeform

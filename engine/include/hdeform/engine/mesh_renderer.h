@@ -67,9 +67,15 @@ class MeshRenderer {
 
   // Before recording frame slot `frame` (whose previous submission the caller has waited for):
   // takes the newest published geometry without waiting, uploads what changed, writes uniforms.
-  void prepare(uint32_t frame, const Camera& camera, const RenderSettings& settings, VkExtent2D extent);
+  void prepare(uint32_t frame, const Camera& camera, const RenderSettings& settings, VkExtent2D extent) {
+    prepare(frame, camera, settings, VkRect2D{{0, 0}, extent});
+  }
   // Records the draws inside a begun render pass.
-  void record(VkCommandBuffer commands, uint32_t frame, VkExtent2D extent) const;
+  void record(VkCommandBuffer commands, uint32_t frame, VkExtent2D extent) const { record(commands, frame, VkRect2D{{0, 0}, extent}); }
+  // The same into a part of the target (several views side by side): the camera's aspect and
+  // every pixel size are the area's.
+  void prepare(uint32_t frame, const Camera& camera, const RenderSettings& settings, VkRect2D area);
+  void record(VkCommandBuffer commands, uint32_t frame, VkRect2D area) const;
 
   // Version and tag of the geometry the last prepare() took for its frame (0: none yet).
   std::uint64_t drawn_geometry_version() const { return drawn_geometry_version_; }

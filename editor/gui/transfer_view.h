@@ -1,0 +1,150 @@
+#pragma once
+// The editor's transfer mode: the source mesh and the target mesh side by side, each in its own
+// viewport and camera. Click a vertex on one and its counterpart on the other to make a marker
+// pair; drag a marker to move it, Delete removes the selected pair, Ctrl+Z undoes; load and save
+// marker files. Compute runs the transfer (paper §6 or §7) for every source pose on a worker
+// thread; the sequence then plays, source pose and transferred target side by side.
+#include <vulkan/vulkan.h>
+
+#include <atomic>
+#include <chrono>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "hdeform/engine/camera.h"
+#include "hdeform/engine/render_targets.h"
+#include "hdeform/engine/vulkan_context.h"
+#include "hdeform/mesh.h"
+#include "hdeform/transfer.h"
+#include "marker_editor.h"
+
+struct ImVec2;
+
+namespace hdeform::cli {
+
+struct TransferInputs {
+  std::string source_rest;
+  std::string target;
+  std::vector<std::string> poses;  // paths; a name with * or ? is a pattern in its folder
+  std::string markers;             // loaded when it exists; where Save writes
+  int source_column = 1;
+};
+
+class TransferView {
+ public:
+  TransferView(const engine::VulkanContext& context, VkRenderPass render_pass, const engine::PassFormat& format, uint32_t frames_in_flight,
+               engine::UpAxis up);
+  ~TransferView();
+  TransferView(const TransferView&) = delete;
+  TransferView& operator=(const TransferView&) = delete;
+
+  // Starts reading the meshes, poses and markers on a worker thread.
+  void open(const TransferInputs& inputs);
+  // A file dropped on the window at `cursor` (window coordinates): on the source's view it
+  // becomes the source rest (and further files its poses), on the target's view the target.
+  void drop(const std::vector<std::string>& paths, const ImVec2& cursor);
+
+  // Each frame, on the UI thread, in this order.
+  void poll();                                        // finished work, playback
+  void draw_panel(bool escape_pressed);               // inside the side panel window
+  void handle_mouse();                                // clicks, marker drags, cameras
+  void handle_key(int key, int mods);                 // shortcuts (not when ImGui takes the keyboard)
+  void draw_overlays();                               // marker numbers, the pending marker
+  void prepare(uint32_t slot, VkExtent2D framebuffer, float panel_pixels);
+  void record(VkCommandBuffer commands, uint32_t slot) const;
+
+  // Whether frames must keep coming (work in progress, playing).
+  bool busy() const;
+  // What runs in the background and for how long, for the progress overlay.
+  std::optional<std::pair<std::string, double>> work() const;
+
+ private:
+  struct Side;
+  struct Loaded;
+  struct Computed;
+
+  void install(std::unique_ptr<Loaded> loaded);
+  void start_compute();
+  void show_frame(int frame);
+  void publish_markers();
+  void fit_cameras();
+  void save_markers(const std::string& path);
+  void export_sequence(const std::string& folder);
+  int side_under(const ImVec2& pixel) const;
+  std::optional<int> pick_vertex(int side, const ImVec2& pixel);
+  std::optional<std::size_t> marker_near(int side, const ImVec2& pixel) const;
+  ImVec2 project(int side, const Eigen::Vector3d& point) const;
+  const Eigen::MatrixXd& shown_positions(int side) const;
+  void add_or_complete(int side, int vertex);
+
+  const engine::VulkanContext& context_;
+  VkRenderPass render_pass_;
+  engine::PassFormat format_;
+  uint32_t frames_in_flight_;
+  engine::UpAxis up_;
+  std::unique_ptr<Side> sides_[2];  // 0: source, 1: target
+
+  std::vector<Eigen::MatrixXd> poses_;
+  std::vector<std::string> pose_names_;
+  MarkerEditor markers_;
+  std::string markers_path_;
+  int source_column_ = 1;
+
+  // Marker editing.
+  struct Pending {
+    int side;
+    int vertex;
+  };
+  std::optional<Pending> pending_;
+  int selected_ = -1;
+  struct Drag {
+    std::size_t pair;
+    int side;
+    int vertex;
+  };
+  std::optional<Drag> drag_;
+  int camera_side_ = -1;  // the view whose camera a right or middle drag turns
+
+  // Transfer.
+  int method_ = 0;  // 0 correspondence, 1 interpolation
+  int top_n_ = 0;
+  float mismatch_threshold_ = static_cast<float>(kDefaultMismatchThreshold);
+  std::unique_ptr<Computed> computed_;
+  std::uint64_t computed_markers_version_ = 0;
+  bool stale() const;
+
+  // Playback: -1 shows the rest shapes.
+  int frame_ = -1;
+  int shown_frame_ = -2;
+  bool shown_results_ = false;
+  bool playing_ = false;
+  float frames_per_second_ = 12.0f;
+  std::chrono::steady_clock::time_point last_advance_{};
+
+  // Background work.
+  std::thread worker_;
+  mutable std::mutex work_mutex_;
+  std::atomic<bool> work_done_{false};
+  std::string work_what_;
+  std::chrono::steady_clock::time_point work_started_{};
+  std::unique_ptr<Loaded> loaded_;
+  std::unique_ptr<Computed> finished_;
+  std::string work_error_;
+
+  // Panel state.
+  char source_path_[1024] = {};
+  char target_path_[1024] = {};
+  char poses_path_[4096] = {};
+  char markers_file_[1024] = {};
+  char dialog_path_[1024] = {};
+  bool save_as_open_ = false;
+  bool export_open_ = false;
+  std::string status_;
+  std::string error_;
+};
+
+}  // namespace hdeform::cli
