@@ -6,6 +6,8 @@
 #include "hdeform/deformation_field.h"
 #include "hdeform/deformer.h"
 #include "hdeform/errors.h"
+#include "hdeform/laplacian.h"
+#include "hdeform/poisson.h"
 #include "hdeform/shapes.h"
 #include "test_support.h"
 
@@ -31,16 +33,44 @@ TEST(Reconstruction, NothingMovedReproducesTheInput) {
   }
 }
 
-TEST(Reconstruction, RigidHandleWithoutSinksMovesTheWholeMeshRigidly) {
-  auto shape = make_shape(ShapeKind::Cactus, 32);
-  shape.demo_constraints.fixed.clear();
-  Deformer deformer(shape.mesh, shape.demo_constraints);
-  EXPECT_NEAR(deformer.field().minCoeff(), 1.0, 1e-12);
+TEST(Reconstruction, OneRotationEverywhereRebuildsARigidMotionExactly) {
+  // Every triangle turned by the same R, one vertex pinned where the motion takes it: the Poisson
+  // solve returns the whole mesh moved rigidly.
+  const auto shape = make_shape(ShapeKind::Cactus, 32);
   const auto transform = rigid(Eigen::Vector3d(1, 2, 3), 80.0, Eigen::Vector3d(0.3, -0.2, 0.5));
-  Eigen::MatrixXd positions;
-  deformer.deform(std::span(&transform, 1), positions);
+  const auto weights = cotangent_weights(shape.mesh);
+  EditConstraints pin;
+  pin.fixed = {0};
+  const auto partition = partition_vertices(shape.mesh, weights, pin);
+  const DirichletSystem system(cotangent_laplacian(shape.mesh, weights), partition, default_backend());
+  const PoissonAssembler assembler(shape.mesh, weights, system);
+  const std::vector<Eigen::Matrix3d> maps(static_cast<std::size_t>(shape.mesh.triangle_count()), transform.linear);
+  Eigen::MatrixXd positions = shape.mesh.positions;
+  positions.row(0) = transform.apply(shape.mesh.positions.row(0).transpose()).transpose();
+  poisson_reconstruct(assembler, system, maps, positions);
   const Eigen::MatrixXd expected = (shape.mesh.positions * transform.linear.transpose()).rowwise() + transform.translation.transpose();
   EXPECT_LE((positions - expected).cwiseAbs().maxCoeff(), 1e-9 * bounding_box_diagonal(shape.mesh.positions));
+}
+
+TEST(Reconstruction, AHandleWithoutASinkInItsPartIsRefused) {
+  auto shape = make_shape(ShapeKind::Cactus, 16);
+  shape.demo_constraints.fixed.clear();
+  try {
+    Deformer deformer(shape.mesh, shape.demo_constraints);
+    FAIL() << "a handle with no sink was accepted";
+  } catch (const InputError& error) {
+    EXPECT_NE(std::string(error.what()).find("the handle has no fixed vertex in its part of the mesh"), std::string::npos) << error.what();
+  }
+  // A region of interest supplies the sinks: the vertices outside it stay fixed.
+  std::vector<int> around_the_arm;
+  for (Eigen::Index v = 0; v < shape.mesh.vertex_count(); ++v) {
+    if (shape.mesh.positions(v, 0) < shape.mesh.positions.col(0).mean()) around_the_arm.push_back(static_cast<int>(v));
+  }
+  shape.demo_constraints.region_of_interest = around_the_arm;
+  for (const int v : shape.demo_constraints.handles[0]) {
+    if (std::find(around_the_arm.begin(), around_the_arm.end(), v) == around_the_arm.end()) shape.demo_constraints.region_of_interest.push_back(v);
+  }
+  EXPECT_NO_THROW(Deformer(shape.mesh, shape.demo_constraints));
 }
 
 TEST(Reconstruction, ResultsAreIndependentOfTheThreadCount) {

@@ -170,8 +170,14 @@ TEST_F(DocumentTest, ARebuildRunsOffTheCallingThreadAndTheStateSaysSo) {
   const auto state = document->solver_state();
   EXPECT_TRUE(state == cli::Document::SolverState::Building || state == cli::Document::SolverState::Ready);
   document->wait_until_ready();
+  // A handle with no fixed vertex: refused with the reason, nothing to show.
+  EXPECT_EQ(document->solver_state(), cli::Document::SolverState::Failed);
+  EXPECT_NE(document->solver_message().find("no fixed vertex"), std::string::npos) << document->solver_message();
+  EXPECT_EQ(document->field(), nullptr);
+  document->paint(shape.demo_constraints.fixed, cli::Layer::Fixed, false);
+  document->poll();
+  document->wait_until_ready();
   EXPECT_EQ(document->solver_state(), cli::Document::SolverState::Ready);
-  // A handle that holds every vertex of a component but no fixed vertex: still solvable (rigid).
   EXPECT_NE(document->field(), nullptr);
 }
 

@@ -80,9 +80,25 @@ VertexPartition partition_vertices(const Mesh& mesh, const CotangentWeights& wei
     components.unite(mesh.triangles(t, 1), mesh.triangles(t, 2));
   }
   std::vector<bool> constrained_root(size, false);
+  std::vector<bool> fixed_root(size, false);
+  std::vector<bool> free_root(size, false);
   for (std::size_t v = 0; v < size; ++v) {
-    if (partition.role[v] != VertexRole::Free) constrained_root[static_cast<std::size_t>(components.find(static_cast<int>(v)))] = true;
+    const auto root = static_cast<std::size_t>(components.find(static_cast<int>(v)));
+    if (partition.role[v] != VertexRole::Free) constrained_root[root] = true;
+    if (partition.role[v] == VertexRole::Fixed) fixed_root[root] = true;
+    if (partition.role[v] == VertexRole::Free) free_root[root] = true;
   }
+  // A part whose free vertices see only handles has a field of 1 throughout (nothing to solve
+  // where a part is all handle, or a lone vertex).
+  for (std::size_t v = 0; v < size; ++v) {
+    const auto root = static_cast<std::size_t>(components.find(static_cast<int>(v)));
+    if (partition.role[v] != VertexRole::Handle || fixed_root[root] || !free_root[root]) continue;
+    const int handle = partition.handle_index[v];
+    if (std::find(partition.handles_without_sink.begin(), partition.handles_without_sink.end(), handle) == partition.handles_without_sink.end()) {
+      partition.handles_without_sink.push_back(handle);
+    }
+  }
+  std::sort(partition.handles_without_sink.begin(), partition.handles_without_sink.end());
   std::vector<bool> stray_root(size, false);
   for (std::size_t v = 0; v < size; ++v) {
     const auto root = static_cast<std::size_t>(components.find(static_cast<int>(v)));

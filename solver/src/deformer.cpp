@@ -74,6 +74,13 @@ Deformer::Deformer(Mesh rest, EditConstraints constraints, DeformerOptions optio
   weights_ = cotangent_weights(rest_);
   inspection_ = inspect_mesh(rest_, weights_);
   partition_ = partition_vertices(rest_, weights_, constraints_);
+  if (!partition_.handles_without_sink.empty()) {
+    const int h = partition_.handles_without_sink.front() + 1;
+    throw InputError((handle_count() == 1 ? std::string("the handle") : "handle " + std::to_string(h)) +
+                     " has no fixed vertex in its part of the mesh (its region of interest): the harmonic field needs sinks "
+                     "(value 0) as well as the handle (value 1), or it is 1 everywhere and undefined as a guide. Fix some "
+                     "vertices there, or give a region of interest (the vertices outside it stay fixed).");
+  }
   const auto laplacian = cotangent_laplacian(rest_, weights_);
   timings_.laplacian_ms = milliseconds_since(start);
 
@@ -222,10 +229,6 @@ Deformer::~Deformer() {
 std::vector<std::string> Deformer::warnings() const {
   auto lines = inspection_.warnings();
   lines.insert(lines.end(), partition_.warnings.begin(), partition_.warnings.end());
-  if (partition_.count(VertexRole::Fixed) == 0) {
-    lines.emplace_back(handle_count() == 1 ? "no fixed vertices: the whole mesh follows the handle rigidly"
-                                           : "no fixed vertices: the handles' motions are blended over the whole mesh");
-  }
   return lines;
 }
 

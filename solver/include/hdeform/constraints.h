@@ -28,6 +28,9 @@ struct VertexPartition {
   std::vector<int> free_vertices;    // ascending
   std::vector<int> constrained_vertices;  // ascending
   std::size_t stray_vertices = 0;    // fixed because nothing constrains their component
+  // Handles (0-based) with a vertex in a part of the mesh whose free vertices meet no fixed vertex:
+  // there the field is 1 everywhere, the handle would move the part rigidly (the Deformer refuses).
+  std::vector<int> handles_without_sink;
   std::size_t stray_components = 0;
   std::size_t unreferenced_vertices = 0;
   std::vector<std::string> warnings;
