@@ -70,9 +70,9 @@ class BenchCommand final : public BatchCommand {
     HandleTransform transform;
     if (!handle_path_.empty()) {
       if (transform_path_.empty()) throw UsageError("--handle needs --transform");
-      constraints.handles = {read_vertex_indices(handle_path_, loaded.mesh.vertex_count())};
-      if (constraints.handles[0].empty()) throw InputError(handle_path_ + ": no vertex indices");
-      if (!fixed_path_.empty()) constraints.fixed = read_vertex_indices(fixed_path_, loaded.mesh.vertex_count());
+      constraints.handles = {read_vertex_list(handle_path_, loaded.mesh.vertex_count(), "a handle needs at least one vertex")};
+      if (!fixed_path_.empty()) constraints.fixed = read_vertex_list(fixed_path_, loaded.mesh.vertex_count(), "the fixed vertices are the sinks");
+      refuse_contradictions(constraints, fixed_path_, {handle_path_});
       transform = read_handle_transform(transform_path_);
     } else if (loaded.demo_constraints) {
       constraints = *loaded.demo_constraints;

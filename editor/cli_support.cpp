@@ -1,4 +1,8 @@
 #include "cli_support.h"
+#include "hdeform/constraint_io.h"
+#include "hdeform/errors.h"
+
+#include <unordered_map>
 
 #include <sys/resource.h>
 
@@ -83,6 +87,26 @@ void Progress::operator()(std::string_view message) const {
 void Progress::warn(const std::vector<std::string>& warnings) const {
   if (quiet_) return;
   for (const auto& line : warnings) std::cerr << "hdeform: warning: " << line << '\n';
+}
+
+std::vector<int> read_vertex_list(const std::string& path, Eigen::Index vertex_count, const std::string& purpose) {
+  auto vertices = read_vertex_indices(path, vertex_count);
+  if (vertices.empty()) throw InputError(path + ": no vertex indices (" + purpose + ")");
+  return vertices;
+}
+
+void refuse_contradictions(const EditConstraints& constraints, const std::string& fixed_path, const std::vector<std::string>& handle_paths) {
+  std::unordered_map<int, std::string> owner;
+  for (const int v : constraints.fixed) owner.emplace(v, fixed_path + " (fixed)");
+  for (std::size_t h = 0; h < constraints.handles.size() && h < handle_paths.size(); ++h) {
+    for (const int v : constraints.handles[h]) {
+      const auto [it, inserted] = owner.emplace(v, handle_paths[h] + " (handle " + std::to_string(h + 1) + ")");
+      if (!inserted) {
+        throw InputError(handle_paths[h] + ": vertex " + std::to_string(v) + " is also listed in " + it->second +
+                         "; a vertex is either fixed or in one handle");
+      }
+    }
+  }
 }
 
 void refuse_overwriting_inputs(const std::string& output, const std::vector<std::string>& inputs) {

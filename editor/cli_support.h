@@ -72,6 +72,13 @@ class Progress {
   std::chrono::steady_clock::time_point start_;
 };
 
+// A vertex list the user named on the command line: an empty one is refused (InputError naming
+// the file), since a given file with nothing in it is a mistake; `purpose` says what it is for.
+std::vector<int> read_vertex_list(const std::string& path, Eigen::Index vertex_count, const std::string& purpose);
+
+// A vertex is fixed or in one handle, never both: refuses (InputError) naming the two files.
+void refuse_contradictions(const EditConstraints& constraints, const std::string& fixed_path, const std::vector<std::string>& handle_paths);
+
 // Refuses (UsageError) an output path that is one of the inputs: inputs are never overwritten.
 void refuse_overwriting_inputs(const std::string& output, const std::vector<std::string>& inputs);
 

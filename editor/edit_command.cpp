@@ -1,6 +1,7 @@
 // hdeform edit: the paper's editing pipeline in batch, optionally as a simulated drag.
 #include <chrono>
 #include <numbers>
+#include <unordered_map>
 
 #include "batch_commands.h"
 #include "cli_support.h"
@@ -72,7 +73,7 @@ class EditCommand final : public BatchCommand {
       Session session = read_session(session_path_, &session_source);
       mesh_name = session.mesh;
       progress("reading " + session.mesh);
-      loaded.mesh = load_session_mesh(session);
+      loaded.mesh = load_session_mesh(session, &session_source);
       check_session_against_mesh(session, loaded.mesh.vertex_count(), session_source);
       if (!session.applied.empty()) {
         progress("replaying " + std::to_string(session.applied.size()) + " applied stage(s)");
@@ -98,12 +99,11 @@ class EditCommand final : public BatchCommand {
       // constraints and transforms came from the session
     } else if (!handle_paths_.empty()) {
       for (std::size_t h = 0; h < handle_paths_.size(); ++h) {
-        auto handle = read_vertex_indices(handle_paths_[h], vertex_count);
-        if (handle.empty()) throw InputError(handle_paths_[h] + ": no vertex indices (a handle needs at least one vertex)");
-        constraints.handles.push_back(std::move(handle));
+        constraints.handles.push_back(read_vertex_list(handle_paths_[h], vertex_count, "a handle needs at least one vertex"));
         transforms.push_back(read_handle_transform(transform_paths_[h]));
       }
-      if (!fixed_path_.empty()) constraints.fixed = read_vertex_indices(fixed_path_, vertex_count);
+      if (!fixed_path_.empty()) constraints.fixed = read_vertex_list(fixed_path_, vertex_count, "the fixed vertices are the sinks");
+      refuse_contradictions(constraints, fixed_path_, handle_paths_);
     } else if (loaded.demo_constraints) {
       if (!fixed_path_.empty()) throw UsageError("--fixed without --handle: give the handles too, or neither for the demo edit");
       constraints = *loaded.demo_constraints;
@@ -111,7 +111,7 @@ class EditCommand final : public BatchCommand {
     } else {
       throw UsageError("give at least one --handle FILE --transform FILE");
     }
-    if (!roi_path_.empty()) constraints.region_of_interest = read_vertex_indices(roi_path_, vertex_count);
+    if (!roi_path_.empty()) constraints.region_of_interest = read_vertex_list(roi_path_, vertex_count, "an empty region of interest leaves nothing to deform");
     const std::string mesh_description = mesh_name;
 
     Deformer deformer(std::move(loaded.mesh), std::move(constraints), options, progress);

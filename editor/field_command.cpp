@@ -43,9 +43,9 @@ class FieldCommand final : public BatchCommand {
 
     EditConstraints constraints;
     if (!sources_path_.empty()) {
-      constraints.handles = {read_vertex_indices(sources_path_, mesh.vertex_count())};
-      if (constraints.handles[0].empty()) throw InputError(sources_path_ + ": no vertex indices (the field needs a source)");
-      if (!sinks_path_.empty()) constraints.fixed = read_vertex_indices(sinks_path_, mesh.vertex_count());
+      constraints.handles = {read_vertex_list(sources_path_, mesh.vertex_count(), "the field needs a source")};
+      if (!sinks_path_.empty()) constraints.fixed = read_vertex_list(sinks_path_, mesh.vertex_count(), "the sinks are where the field is 0");
+      refuse_contradictions(constraints, sinks_path_, {sources_path_});
     } else if (loaded.demo_constraints) {
       if (!sinks_path_.empty()) throw UsageError("--sinks without --sources");
       constraints = *loaded.demo_constraints;

@@ -15,6 +15,7 @@ namespace {
 
 constexpr int kExitBadData = 1;
 constexpr int kExitUsage = 2;
+constexpr int kExitInternal = 3;  // an exception no check anticipated: a bug to report
 
 }  // namespace
 
@@ -68,6 +69,9 @@ int main(int argc, char** argv) {
   } catch (const std::bad_alloc&) {
     std::cerr << "hdeform: error: out of memory\n";
     return kExitBadData;
+  } catch (const std::exception& error) {
+    std::cerr << "hdeform: internal error: " << error.what() << " (please report it)\n";
+    return kExitInternal;
   }
   return kExitUsage;
 }

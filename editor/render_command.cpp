@@ -38,8 +38,9 @@ class RenderCommand final : public BatchCommand {
     scene.up = picture_.up_axis();
 
     EditConstraints constraints;
-    if (!fixed_path_.empty()) constraints.fixed = read_vertex_indices(fixed_path_, mesh.vertex_count());
-    for (const auto& path : handle_paths_) constraints.handles.push_back(read_vertex_indices(path, mesh.vertex_count()));
+    if (!fixed_path_.empty()) constraints.fixed = read_vertex_list(fixed_path_, mesh.vertex_count(), "the fixed vertices to colour");
+    for (const auto& path : handle_paths_) constraints.handles.push_back(read_vertex_list(path, mesh.vertex_count(), "a handle needs at least one vertex"));
+    refuse_contradictions(constraints, fixed_path_, handle_paths_);
     if (!field_path_.empty()) scene.field = read_values(field_path_, mesh.vertex_count());
     const bool nothing_given = field_path_.empty() && fixed_path_.empty() && handle_paths_.empty();
     if (nothing_given && loaded.demo_constraints) {

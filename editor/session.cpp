@@ -231,6 +231,14 @@ Session read_session(const std::filesystem::path& path, SessionSource* source_ou
     const auto colon = what.rfind(": ");
     throw InputError(path.string() + ":" + std::to_string(line_of_offset(source.text, error.byte > 0 ? error.byte - 1 : 0)) +
                      ": not valid JSON (" + (colon == std::string::npos ? what : what.substr(colon + 2)) + ")");
+  } catch (const json::exception& error) {
+    // A number too large for a double ("number overflow parsing '1e999'"): point at its line.
+    const std::string what = error.what();
+    const auto quote = what.find('\'');
+    const auto token = quote == std::string::npos ? std::string() : what.substr(quote + 1, what.find('\'', quote + 1) - quote - 1);
+    const auto at = token.empty() ? std::string::npos : source.text.find(token);
+    const std::string where = at == std::string::npos ? path.string() : path.string() + ":" + std::to_string(line_of_offset(source.text, at));
+    throw InputError(where + ": not valid JSON (" + (token.empty() ? what : "the number " + token + " is out of range") + ")");
   }
   Session session = session_from_json(value, source);
   if (!session.mesh.starts_with("shape:")) {
@@ -278,7 +286,14 @@ void check_session_against_mesh(const Session& session, Eigen::Index vertex_coun
   check_stage(session.current, "/current");
 }
 
-Mesh load_session_mesh(const Session& session) {
+Mesh load_session_mesh(const Session& session, const SessionSource* session_source) {
+  if (session_source != nullptr) {
+    try {
+      return load_session_mesh(session);
+    } catch (const InputError& error) {
+      throw InputError(session_source->where("/mesh") + ": the session's mesh: " + error.what());
+    }
+  }
   if (session.mesh.starts_with("shape:")) {
     MeshSource source;
     const std::string spec = session.mesh.substr(6);

@@ -64,8 +64,9 @@ void write_session(const std::filesystem::path& path, const Session& session);
 // are both fixed and in a handle or in two handles; errors name the line.
 void check_session_against_mesh(const Session& session, Eigen::Index vertex_count, const SessionSource& source);
 
-// The session's base mesh (an OBJ, or a built-in shape).
-Mesh load_session_mesh(const Session& session);
+// The session's base mesh (an OBJ, or a built-in shape). With `source`, a problem also names the
+// session file's line.
+Mesh load_session_mesh(const Session& session, const SessionSource* source = nullptr);
 
 // The rest shape after the applied stages, then the current stage's result (the rest shape
 // itself when the current stage has no handle). `progress` as for Deformer.

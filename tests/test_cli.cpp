@@ -112,10 +112,10 @@ TEST_F(Cli, BadDataExitsWithOneNamesTheFileAndWritesNothing) {
   const std::vector<Case> cases{
       {"edit --mesh " + path("missing.obj") + " --handle " + path("h.txt") + " --transform " + path("id.txt"), "missing.obj"},
       {"edit --shape cactus --handle " + path("h.txt") + " --transform " + path("singular.txt"), "singular"},
-      {"edit --shape cactus --handle " + path("h.txt") + " --transform " + path("short.txt"), "expected 12 numbers"},
+      {"edit --shape cactus --handle " + path("h.txt") + " --transform " + path("short.txt"), "short.txt:2: the numbers end after 8; expected 12"},
       {"edit --shape cactus --handle " + path("range.txt") + " --transform " + path("id.txt"), "range.txt:2: vertex 99999999 out of range"},
       {"edit --shape cactus --fixed " + path("both.txt") + " --handle " + path("h.txt") + " --transform " + path("id.txt"),
-       "both fixed and in handle 1"},
+       "h.txt: vertex 0 is also listed in"},
       {"edit --shape cactus --handle " + path("missing-h.txt") + " --transform " + path("id.txt"), "missing-h.txt"},
   };
   for (const auto& c : cases) {

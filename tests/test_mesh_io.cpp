@@ -49,7 +49,7 @@ TEST(MeshIo, TriangulatesPolygonsAndIgnoresAttributes) {
 
 TEST(MeshIo, MalformedFilesGiveTheirErrors) {
   const test::TempDir dir;
-  expect_read_error(dir, "", {"no triangles"});
+  expect_read_error(dir, "", {"empty: no vertices and no triangles"});
   expect_read_error(dir, "v 0 0 0\nv 1 0 0\nv 0 1 0\n", {"no triangles"});
   expect_read_error(dir, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n", {":4:", "out of range", "3 vertices"});
   expect_read_error(dir, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 0\n", {":4:", "index 0"});

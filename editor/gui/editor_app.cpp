@@ -310,8 +310,9 @@ class EditorApp {
   void restore_recovery() {
     const auto path = recovery_->path();
     start_load([path] {
-      Session session = read_session(path);
-      return std::pair{session, load_session_mesh(session)};
+      SessionSource source;
+      Session session = read_session(path, &source);
+      return std::pair{session, load_session_mesh(session, &source)};
     });
   }
 
@@ -320,8 +321,9 @@ class EditorApp {
     const EditorOptions options = options_;
     start_load([options] {
       if (!options.session.empty()) {
-        Session session = read_session(options.session);
-        return std::pair{session, load_session_mesh(session)};
+        SessionSource source;
+        Session session = read_session(options.session, &source);
+        return std::pair{session, load_session_mesh(session, &source)};
       }
       Session session;
       session.mesh = options.mesh.empty() ? "shape:cactus" : options.mesh;
@@ -335,15 +337,17 @@ class EditorApp {
         session.current.fixed = shape.demo_constraints.fixed;
         session.current.handles.push_back({shape.demo_constraints.handles[0], pose_for(shape.demo_constraints.handles[0], mesh, {})});
       }
-      if (!options.fixed.empty()) session.current.fixed = read_vertex_indices(options.fixed, mesh.vertex_count());
-      if (!options.roi.empty()) session.current.region_of_interest = read_vertex_indices(options.roi, mesh.vertex_count());
+      if (!options.fixed.empty()) session.current.fixed = read_vertex_list(options.fixed, mesh.vertex_count(), "the fixed vertices are the sinks");
+      if (!options.roi.empty()) {
+        session.current.region_of_interest = read_vertex_list(options.roi, mesh.vertex_count(), "an empty region of interest leaves nothing to deform");
+      }
       for (std::size_t h = 0; h < options.handles.size(); ++h) {
-        auto vertices = read_vertex_indices(options.handles[h], mesh.vertex_count());
-        if (vertices.empty()) throw InputError(options.handles[h] + ": no vertex indices (a handle needs at least one vertex)");
+        auto vertices = read_vertex_list(options.handles[h], mesh.vertex_count(), "a handle needs at least one vertex");
         std::optional<HandleTransform> target;
         if (h < options.transforms.size()) target = read_handle_transform(options.transforms[h]);
         session.current.handles.push_back({vertices, pose_for(vertices, mesh, target)});
       }
+      if (!options.handles.empty()) refuse_contradictions(session.current.constraints(), options.fixed, options.handles);
       return std::pair{session, mesh};
     });
   }
@@ -462,8 +466,9 @@ class EditorApp {
   void open_path(const std::string& path) {
     if (path.ends_with(".json")) {
       start_load([path] {
-        Session session = read_session(path);
-        return std::pair{session, load_session_mesh(session)};
+        SessionSource source;
+        Session session = read_session(path, &source);
+        return std::pair{session, load_session_mesh(session, &source)};
       });
       return;
     }

@@ -43,6 +43,7 @@ HandleTransform read_handle_transform(const std::filesystem::path& path) {
   const std::string content = detail::read_text_file(path);
   detail::reject_binary(path, content);
   std::vector<double> numbers;
+  std::vector<std::size_t> number_lines;
   bool twist = false;
   std::vector<std::string_view> tokens;
   detail::for_each_line(content, [&](std::size_t line, std::string_view text) {
@@ -56,33 +57,40 @@ HandleTransform read_handle_transform(const std::filesystem::path& path) {
       if (!value) fail_at(path, line, quoted(token) + " is not a number");
       if (!std::isfinite(*value)) fail_at(path, line, "non-finite value " + quoted(token));
       numbers.push_back(*value);
+      number_lines.push_back(line);
     }
   });
+  // A count problem is reported where the numbers run out or where the first extra one stands.
+  const auto count_problem = [&](std::size_t expected, const std::string& what) {
+    if (numbers.empty()) throw InputError(path.string() + ": no numbers; expected " + what);
+    if (numbers.size() < expected) fail_at(path, number_lines.back(), "the numbers end after " + std::to_string(numbers.size()) + "; expected " + what);
+    fail_at(path, number_lines[expected], "more than " + std::to_string(expected) + " numbers; expected " + what);
+  };
   try {
     if (twist) {
-      if (numbers.size() != 7 && numbers.size() != 8) {
-        throw InputError("a twist needs AX AY AZ PX PY PZ DEGREES [SCALE], found " + std::to_string(numbers.size()) + " numbers");
-      }
+      if (numbers.size() != 7 && numbers.size() != 8) count_problem(numbers.size() < 7 ? 7 : 8, "AX AY AZ PX PY PZ DEGREES [SCALE] after 'twist'");
       const Eigen::Vector3d axis(numbers[0], numbers[1], numbers[2]);
       const Eigen::Vector3d point(numbers[3], numbers[4], numbers[5]);
       return HandleTransform::about_pivot(axis, point, numbers[6] * std::numbers::pi / 180.0, numbers.size() == 8 ? numbers[7] : 1.0);
     }
     if (numbers.size() == 16) {
       if (numbers[12] != 0.0 || numbers[13] != 0.0 || numbers[14] != 0.0 || numbers[15] != 1.0) {
-        throw InputError("a 4×4 transform must end with the row 0 0 0 1 (it is not affine)");
+        fail_at(path, number_lines[12], "a 4×4 transform must end with the row 0 0 0 1 (it is not affine)");
       }
       numbers.resize(12);
     }
-    if (numbers.size() != 12) {
-      throw InputError("expected 12 numbers (the 3×4 matrix [A | t], row-major), found " + std::to_string(numbers.size()));
-    }
+    if (numbers.size() != 12) count_problem(12, "12 (the 3×4 matrix [A | t], row-major)");
     Eigen::Matrix<double, 3, 4> affine;
     for (int r = 0; r < 3; ++r) {
       for (int c = 0; c < 4; ++c) affine(r, c) = numbers[static_cast<std::size_t>(4 * r + c)];
     }
     return HandleTransform::from_affine(affine);
   } catch (const InputError& error) {
-    throw InputError(path.string() + ": " + error.what());
+    if (std::string(error.what()).starts_with(path.string())) throw;
+    // A property of the whole matrix: name the lines that hold it.
+    const std::string lines = number_lines.front() == number_lines.back() ? std::to_string(number_lines.front())
+                                                                          : std::to_string(number_lines.front()) + "-" + std::to_string(number_lines.back());
+    throw InputError(path.string() + ":" + lines + ": " + error.what());
   }
 }
 
@@ -91,6 +99,7 @@ Eigen::VectorXd read_values(const std::filesystem::path& path, Eigen::Index vert
   detail::reject_binary(path, content);
   std::vector<double> values;
   std::vector<std::string_view> tokens;
+  std::size_t last_line = 0;
   detail::for_each_line(content, [&](std::size_t line, std::string_view text) {
     detail::split_tokens(text, tokens);
     for (const auto token : tokens) {
@@ -101,10 +110,12 @@ Eigen::VectorXd read_values(const std::filesystem::path& path, Eigen::Index vert
         fail_at(path, line, "more values than the mesh's " + std::to_string(vertex_count) + " vertices");
       }
       values.push_back(*value);
+      last_line = line;
     }
   });
+  if (values.empty()) throw InputError(path.string() + ": no values (one per vertex: " + std::to_string(vertex_count) + ")");
   if (static_cast<Eigen::Index>(values.size()) != vertex_count) {
-    throw InputError(path.string() + ": " + std::to_string(values.size()) + " values for " + std::to_string(vertex_count) + " vertices");
+    fail_at(path, last_line, "the values end after " + std::to_string(values.size()) + "; the mesh has " + std::to_string(vertex_count) + " vertices");
   }
   return Eigen::Map<const Eigen::VectorXd>(values.data(), vertex_count);
 }

@@ -1,6 +1,7 @@
 #include "hdeform/mesh_check.h"
 
 #include <algorithm>
+#include <array>
 #include <cstdint>
 
 #include "disjoint_sets.h"
@@ -17,6 +18,13 @@ std::vector<std::string> MeshInspection::warnings() const {
                     " duplicated triangles or triangles with a repeated vertex (left out of the operator)");
   }
   if (nonmanifold_edges > 0) lines.push_back(std::to_string(nonmanifold_edges) + " non-manifold edges (shared by more than two triangles)");
+  if (nonmanifold_vertices > 0) {
+    lines.push_back(std::to_string(nonmanifold_vertices) + " non-manifold vertices (where separate fans of triangles meet)");
+  }
+  if (duplicated_vertices > 0) {
+    lines.push_back(std::to_string(duplicated_vertices) +
+                    " duplicated vertices (at the same position as another vertex: the mesh is not joined there)");
+  }
   if (components > 1) lines.push_back(std::to_string(components) + " connected components");
   if (unreferenced_vertices > 0) lines.push_back(std::to_string(unreferenced_vertices) + " unreferenced vertices (in no triangle)");
   return lines;
@@ -53,6 +61,52 @@ MeshInspection inspect_mesh(const Mesh& mesh, const CotangentWeights& weights) {
   for (std::size_t v = 0; v < n; ++v) {
     if (!referenced[v]) ++inspection.unreferenced_vertices;
     else if (components.find(static_cast<int>(v)) == static_cast<int>(v)) ++inspection.components;
+  }
+
+  // A vertex is manifold when the triangles around it form one fan: in its link (the opposite
+  // edges of its triangles) every neighbour is reachable from every other.
+  struct Corner {
+    int vertex, a, b;
+  };
+  std::vector<Corner> corners;
+  corners.reserve(static_cast<std::size_t>(mesh.triangle_count()) * 3);
+  for (Eigen::Index t = 0; t < mesh.triangle_count(); ++t) {
+    const int i = mesh.triangles(t, 0), j = mesh.triangles(t, 1), k = mesh.triangles(t, 2);
+    if (i == j || j == k || k == i) continue;
+    corners.push_back({i, j, k});
+    corners.push_back({j, k, i});
+    corners.push_back({k, i, j});
+  }
+  std::sort(corners.begin(), corners.end(), [](const Corner& x, const Corner& y) { return x.vertex < y.vertex; });
+  std::vector<int> neighbours;
+  for (std::size_t first = 0; first < corners.size();) {
+    std::size_t last = first;
+    neighbours.clear();
+    while (last < corners.size() && corners[last].vertex == corners[first].vertex) {
+      neighbours.push_back(corners[last].a);
+      neighbours.push_back(corners[last].b);
+      ++last;
+    }
+    std::sort(neighbours.begin(), neighbours.end());
+    neighbours.erase(std::unique(neighbours.begin(), neighbours.end()), neighbours.end());
+    detail::DisjointSets link(neighbours.size());
+    const auto local = [&](int vertex) { return static_cast<int>(std::lower_bound(neighbours.begin(), neighbours.end(), vertex) - neighbours.begin()); };
+    for (std::size_t c = first; c < last; ++c) link.unite(local(corners[c].a), local(corners[c].b));
+    std::size_t fans = 0;
+    for (std::size_t k = 0; k < neighbours.size(); ++k) fans += link.find(static_cast<int>(k)) == static_cast<int>(k) ? 1 : 0;
+    if (fans > 1) ++inspection.nonmanifold_vertices;
+    first = last;
+  }
+
+  // Vertices at exactly the same position (each one after the first counts).
+  std::vector<int> order;
+  for (std::size_t v = 0; v < n; ++v) {
+    if (referenced[v]) order.push_back(static_cast<int>(v));
+  }
+  const auto position = [&](int v) { return std::array<double, 3>{mesh.positions(v, 0), mesh.positions(v, 1), mesh.positions(v, 2)}; };
+  std::sort(order.begin(), order.end(), [&](int x, int y) { return position(x) < position(y); });
+  for (std::size_t k = 1; k < order.size(); ++k) {
+    if (position(order[k]) == position(order[k - 1])) ++inspection.duplicated_vertices;
   }
   return inspection;
 }

@@ -69,7 +69,9 @@ std::vector<double> scan_obj_vertices(const std::filesystem::path& path, std::st
                                         std::to_string(vertex_count) + " vertices)");
     }
   }
-  if (face_count == 0) throw InputError(path.string() + ": no triangles (the file has no faces)");
+  if (face_count == 0) {
+    throw InputError(path.string() + (vertex_count == 0 ? ": empty: no vertices and no triangles" : ": no triangles (the file has no faces)"));
+  }
   return coordinates;
 }
 
