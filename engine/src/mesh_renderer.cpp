@@ -357,7 +357,7 @@ void MeshRenderer::prepare(uint32_t frame_index, const Camera& camera, const Ren
       context_.destroy(frame.markers);  // this frame's previous submission has completed
       frame.markers = context_.create_buffer(sizeof(Marker) * std::max<std::size_t>(markers_cpu_.size(), 16), VK_BUFFER_USAGE_VERTEX_BUFFER_BIT);
     }
-    std::memcpy(frame.markers.mapped, markers_cpu_.data(), sizeof(Marker) * markers_cpu_.size());
+    if (!markers_cpu_.empty()) std::memcpy(frame.markers.mapped, markers_cpu_.data(), sizeof(Marker) * markers_cpu_.size());
     frame.marker_count = static_cast<uint32_t>(markers_cpu_.size());
     frame.markers_version = markers_version_;
   }

@@ -1,6 +1,7 @@
 #include "hdeform/engine/swapchain_target.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cstring>
 
 namespace hdeform::engine {
@@ -56,8 +57,14 @@ SwapchainTarget::SwapchainTarget(const VulkanContext& context, std::function<VkE
         to_present_.pop_front();
         presenting_ = true;
         lock.unlock();
-        present_now(image);
+        std::exception_ptr error;
+        try {
+          present_now(image);
+        } catch (...) {
+          error = std::current_exception();
+        }
         lock.lock();
+        if (error && !present_error_) present_error_ = error;
         presenting_ = false;
         present_signal_.notify_all();
       }
@@ -67,7 +74,11 @@ SwapchainTarget::SwapchainTarget(const VulkanContext& context, std::function<VkE
 
 SwapchainTarget::~SwapchainTarget() {
   if (presenter_.joinable()) {
-    wait_for_presenter();
+    try {
+      wait_for_presenter();
+    } catch (const std::exception&) {
+      // Already reported to the caller of the failed frame, or the device is gone: close anyway.
+    }
     {
       std::lock_guard lock(present_mutex_);
       stopping_ = true;
@@ -158,6 +169,15 @@ void SwapchainTarget::wait_for_presenter() {
   if (!presenter_.joinable()) return;
   std::unique_lock lock(present_mutex_);
   present_signal_.wait(lock, [this] { return to_present_.empty() && !presenting_; });
+  rethrow_present_error(lock);
+}
+
+void SwapchainTarget::rethrow_present_error(std::unique_lock<std::mutex>& locked) {
+  (void)locked;
+  if (!present_error_) return;
+  std::exception_ptr error;
+  std::swap(error, present_error_);
+  std::rethrow_exception(error);
 }
 
 void SwapchainTarget::rebuild() {
@@ -177,7 +197,23 @@ bool SwapchainTarget::acquire(VkSemaphore image_available, uint32_t& image) {
     rebuild();
     if (swapchain_ == VK_NULL_HANDLE) return false;
   }
-  const VkResult result = vkAcquireNextImageKHR(context_.device(), swapchain_, UINT64_MAX, image_available, VK_NULL_HANDLE, &image);
+  VkResult result;
+  if (!presenter_.joinable()) {
+    result = vkAcquireNextImageKHR(context_.device(), swapchain_, UINT64_MAX, image_available, VK_NULL_HANDLE, &image);
+  } else {
+    // The presenting thread may hold the image this call would wait for, and it needs the
+    // swapchain to release it: ask without waiting, and let it present in between.
+    for (;;) {
+      {
+        std::lock_guard lock(swapchain_mutex_);
+        result = vkAcquireNextImageKHR(context_.device(), swapchain_, 0, image_available, VK_NULL_HANDLE, &image);
+      }
+      if (result != VK_NOT_READY && result != VK_TIMEOUT) break;
+      std::unique_lock lock(present_mutex_);
+      rethrow_present_error(lock);
+      present_signal_.wait_for(lock, std::chrono::milliseconds(1));
+    }
+  }
   if (result == VK_ERROR_OUT_OF_DATE_KHR) {
     rebuild();
     return false;
@@ -232,7 +268,8 @@ void SwapchainTarget::present(uint32_t image) {
     return;
   }
   {
-    std::lock_guard lock(present_mutex_);
+    std::unique_lock lock(present_mutex_);
+    rethrow_present_error(lock);
     to_present_.push_back(image);
   }
   present_signal_.notify_all();
@@ -248,7 +285,7 @@ void SwapchainTarget::present_now(uint32_t image) {
   info.pImageIndices = &image;
   VkResult result;
   {
-    std::lock_guard lock(context_.queue_mutex());
+    std::scoped_lock lock(swapchain_mutex_, context_.queue_mutex());
     result = vkQueuePresentKHR(context_.queue(), &info);
   }
   if (result == VK_ERROR_OUT_OF_DATE_KHR || result == VK_SUBOPTIMAL_KHR) {

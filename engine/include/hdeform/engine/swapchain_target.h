@@ -6,6 +6,7 @@
 #include <condition_variable>
 #include <deque>
 #include <functional>
+#include <exception>
 #include <mutex>
 #include <thread>
 #include <vector>
@@ -56,6 +57,7 @@ class SwapchainTarget {
   void destroy_swapchain();
   void present_now(uint32_t image);
   void wait_for_presenter();
+  void rethrow_present_error(std::unique_lock<std::mutex>& locked);  // with present_mutex_ held
 
   const VulkanContext& context_;
   std::function<VkExtent2D()> framebuffer_size_;
@@ -71,12 +73,15 @@ class SwapchainTarget {
   VkExtent2D copy_extent_{0, 0};
 
   std::thread presenter_;
+  // vkAcquireNextImageKHR and vkQueuePresentKHR both need the swapchain to themselves.
+  std::mutex swapchain_mutex_;
   std::mutex present_mutex_;
   std::condition_variable present_signal_;
   std::deque<uint32_t> to_present_;
   bool presenting_ = false;
   bool stopping_ = false;
   std::atomic<bool> out_of_date_{false};
+  std::exception_ptr present_error_;  // a failed present on the thread, rethrown on the caller's
 };
 
 }  // namespace hdeform::engine
