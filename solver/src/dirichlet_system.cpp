@@ -15,7 +15,7 @@ DirichletSystem::DirichletSystem(const Eigen::SparseMatrix<double>& laplacian, c
 
   // L_ff in free-vertex order; columns of the symmetric L are its rows.
   Eigen::SparseMatrix<double> free_block(static_cast<Eigen::Index>(free.size()), static_cast<Eigen::Index>(free.size()));
-  {
+  if (!free.empty()) {  // (Eigen's makeCompressed reads past a matrix with no columns)
     Eigen::VectorXi per_column(static_cast<Eigen::Index>(free.size()));
     for (std::size_t k = 0; k < free.size(); ++k) {
       per_column(static_cast<Eigen::Index>(k)) = static_cast<int>(laplacian.innerVector(free[k]).nonZeros());
