@@ -10,6 +10,7 @@
 #include <cmath>
 #include <filesystem>
 #include <iostream>
+#include <mutex>
 
 #include "hdeform/errors.h"
 #include "hdeform/mesh_io.h"
@@ -125,7 +126,13 @@ double peak_rss_mb() {
   return static_cast<double>(usage.ru_maxrss) / 1024.0;
 }
 
-void print_json_line(const nlohmann::json& value) { std::cout << value.dump() << std::endl; }
+void print_json_line(const nlohmann::json& value) {
+  // Whole lines, also when the editor's threads report at once.
+  static std::mutex mutex;
+  const std::string line = value.dump() + '\n';
+  const std::lock_guard lock(mutex);
+  std::cout << line << std::flush;
+}
 
 Summary summarize(std::vector<double> samples) {
   Summary summary;

@@ -85,7 +85,7 @@ void refuse_overwriting_inputs(const std::string& output, const std::vector<std:
 // Largest resident set size of this process so far, in MB.
 double peak_rss_mb();
 
-// Exactly one JSON object on one line of stdout.
+// Exactly one JSON object on one line of stdout (safe from any thread).
 void print_json_line(const nlohmann::json& value);
 
 // Median and maximum of a sample (empty: zeros).

@@ -1,5 +1,7 @@
 #include "session.h"
 
+#include <cstdint>
+#include <cstdio>
 #include <cstring>
 #include <fstream>
 #include <limits>
@@ -176,6 +178,18 @@ json to_json(const Session& session) {
           {"applied", applied},
           {"current", stage_json(session.current)},
           {"active_handle", session.active_handle}};
+}
+
+std::string session_digest(const Session& session) {
+  // FNV-1a, 64 bits: identifies a state among a few hundred, not a defence against forgery.
+  std::uint64_t hash = 0xcbf29ce484222325ull;
+  for (const char c : to_json(session).dump()) {
+    hash ^= static_cast<unsigned char>(c);
+    hash *= 0x100000001b3ull;
+  }
+  char text[17];
+  std::snprintf(text, sizeof text, "%016llx", static_cast<unsigned long long>(hash));
+  return text;
 }
 
 std::string SessionSource::where(const std::string& pointer) const {

@@ -44,6 +44,10 @@ struct Session {
 };
 
 nlohmann::json to_json(const Session& session);
+// A short fingerprint of the state (of its JSON), equal for equal sessions: the editor announces
+// the digest of every state it puts in the recovery file, so that a test can tell whether a
+// restored state is one the user had.
+std::string session_digest(const Session& session);
 
 // Where a session came from, to name the line of a problem found after parsing.
 struct SessionSource {

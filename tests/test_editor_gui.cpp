@@ -12,10 +12,12 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <chrono>
 #include <condition_variable>
 #include <fstream>
 #include <mutex>
+#include <random>
 #include <thread>
 
 #include "hdeform/deformer.h"
@@ -91,6 +93,7 @@ class Editor {
           } catch (const json::exception&) {
             events_.push_back(json{{"event", "text"}, {"text", line}});
           }
+          arrival_.push_back(Clock::now());
           arrived_.notify_all();
         }
       }
@@ -159,9 +162,18 @@ class Editor {
     return -1;
   }
   void kill_now() {
+    if (pid_ <= 0) return;
     ::kill(pid_, SIGKILL);
     waitpid(pid_, nullptr, 0);
     pid_ = -1;
+  }
+  // After the process has ended: every event it printed, with when the test received it (never
+  // earlier than when it was printed).
+  std::vector<std::pair<json, Clock::time_point>> all_events() {
+    if (reader_.joinable()) reader_.join();
+    std::vector<std::pair<json, Clock::time_point>> all;
+    for (std::size_t k = 0; k < events_.size(); ++k) all.emplace_back(events_[k], arrival_[k]);
+    return all;
   }
 
  private:
@@ -170,6 +182,7 @@ class Editor {
   std::mutex mutex_;
   std::condition_variable arrived_;
   std::vector<json> events_;
+  std::vector<Clock::time_point> arrival_;
 };
 
 // Where the editor's default view puts a point of the rest shape, in window pixels.
@@ -406,6 +419,123 @@ TEST_F(EditorGui, AfterKillNineTheNextStartRestoresTheStateBeforeTheKill) {
   double moved = 0.0;
   for (const int v : restored.current.handles[0].vertices) moved = std::max(moved, (result.positions.row(v) - rest.positions.row(v)).norm());
   EXPECT_GT(moved, 0.0) << "the restored mesh shows the drag";
+}
+
+// A user's session, scripted with random choices, killed with SIGKILL at random moments over and
+// over, each start restoring the last: the recovery file always parses, always holds a state the
+// editor announced (a state the user had), never one older than what was announced a few seconds
+// before the kill, and the next start shows exactly that state.
+TEST_F(EditorGui, RecoveryFileSurvivesKillNineAtRandomMoments) {
+  unsigned seed = 20261123;
+  if (const char* given = std::getenv("HDEFORM_KILL_SEED")) seed = static_cast<unsigned>(std::stoul(given));
+  std::mt19937 random(seed);
+  constexpr int kRounds = 6;
+  constexpr auto kAtMostLost = 3s;  // the editor writes within milliseconds; this allows a loaded machine
+  const auto recovery_file = dir.file("recovery.json");
+  const auto sink = view.pixel(rest.positions.row(facing_vertex(rest, shape.demo_constraints.fixed, view)).transpose());
+  const auto tip = view.pixel(rest.positions.row(facing_vertex(rest, shape.demo_constraints.handles[0], view)).transpose());
+
+  struct Announcement {
+    std::string digest;
+    Clock::time_point received;
+  };
+  std::vector<Announcement> announced;  // every state put in the recovery file, all runs
+  std::string expected_on_restore;      // the digest of the recovery file the next start finds
+  for (int round = 0; round < kRounds; ++round) {
+    const auto kill_after = std::chrono::milliseconds(std::uniform_int_distribution<int>(300, 7000)(random));
+    const unsigned script_seed = static_cast<unsigned>(random());
+    Editor editor(editor_arguments(round == 0 ? "no" : "yes"));
+    const auto started = Clock::now();
+    std::atomic<bool> stop = false;
+    // The user: paints a sink and a handle, then drags, undoes and paints more, at random. Any
+    // step may fail once the editor is gone; the script just ends.
+    std::thread user([&] {
+      std::mt19937 choices(script_seed);
+      const auto act = [&](const std::string& arguments, std::chrono::milliseconds pause) {
+        if (stop) return false;
+        const bool done = shell("xdotool " + arguments + " 2>/dev/null").first == 0;
+        std::this_thread::sleep_for(pause);
+        return done && !stop;
+      };
+      std::string editor_window;
+      while (!stop && editor_window.empty()) {
+        const auto [status, out] = shell("xdotool search --onlyvisible --name '^hdeform' 2>/dev/null");
+        if (status == 0 && !out.empty()) editor_window = out.substr(0, out.find('\n'));
+        else std::this_thread::sleep_for(100ms);
+      }
+      if (!act("windowfocus " + editor_window, 50ms)) return;
+      const auto move = [&](const Eigen::Vector2f& p) { return act("mousemove --window " + editor_window + " " + at(p), 40ms); };
+      const auto key = [&](const std::string& name) { return act("keydown " + name, 60ms) && act("keyup " + name, 150ms); };
+      const auto stroke = [&](const Eigen::Vector2f& from, const Eigen::Vector2f& to) {
+        if (!move(from) || !act("mousedown 1", 100ms)) return false;
+        for (int k = 1; k <= 6; ++k) {
+          if (!move(from + (to - from) * (static_cast<float>(k) / 6.0f))) return false;
+        }
+        return act("mouseup 1", 250ms);
+      };
+      if (!key("2") || !stroke(sink + Eigen::Vector2f(-6, 0), sink + Eigen::Vector2f(6, 0))) return;
+      if (!key("3") || !stroke(tip + Eigen::Vector2f(0, -4), tip + Eigen::Vector2f(0, 4))) return;
+      std::uniform_real_distribution<float> offset(-60.0f, 60.0f);
+      for (;;) {
+        const int choice = std::uniform_int_distribution<int>(0, 9)(choices);
+        if (choice < 6) {
+          if (!key("g") || !stroke(tip, tip + Eigen::Vector2f(offset(choices), offset(choices)))) return;
+        } else if (choice < 8) {
+          if (!key("ctrl+z")) return;
+        } else {
+          if (!key("3") || !stroke(tip + Eigen::Vector2f(offset(choices) * 0.1f, -4), tip + Eigen::Vector2f(0, 4))) return;
+        }
+      }
+    });
+    std::this_thread::sleep_until(started + kill_after);
+    editor.kill_now();
+    const auto killed = Clock::now();
+    stop = true;
+    user.join();
+    shell("xdotool mouseup 1 2>/dev/null");  // a button held when the editor died stays held otherwise
+
+    const auto events = editor.all_events();
+    for (const auto& [event, received] : events) {
+      if (event.value("event", "") == "recovery") announced.push_back({event.value("digest", ""), received});
+      if (event.value("event", "") == "opened" && !expected_on_restore.empty()) {
+        EXPECT_EQ(event.value("session_digest", ""), expected_on_restore) << "round " << round << ": the start did not restore the recovery file";
+      }
+      EXPECT_NE(event.value("event", ""), "error") << "round " << round << ": " << event.dump();
+    }
+    std::cerr << "round " << round << " (seed " << seed << "): killed after " << kill_after.count() << " ms, " << announced.size()
+              << " states announced so far\n";
+    if (!std::filesystem::exists(recovery_file)) {
+      EXPECT_TRUE(announced.empty()) << "round " << round << ": the recovery file is gone although states were announced";
+      continue;
+    }
+    cli::Session recovered;
+    ASSERT_NO_THROW(recovered = cli::read_session(recovery_file)) << "round " << round << ": the recovery file is damaged";
+    expected_on_restore = cli::session_digest(recovered);
+    std::size_t latest = announced.size();
+    for (std::size_t k = 0; k < announced.size(); ++k) {
+      if (announced[k].digest == expected_on_restore) latest = k;
+    }
+    ASSERT_LT(latest, announced.size()) << "round " << round << ": the recovery file holds a state the editor never had";
+    for (std::size_t k = latest + 1; k < announced.size(); ++k) {
+      EXPECT_GT(announced[k].received, killed - kAtMostLost) << "round " << round << ": a state announced " << k - latest
+                                                             << " states later, more than a few seconds before the kill, was lost";
+    }
+  }
+
+  // A clean start restores the last state, exits cleanly, and leaves nothing behind.
+  Editor editor(editor_arguments("yes"));
+  const json opened = editor.wait_for("opened");
+  if (!expected_on_restore.empty()) {
+    EXPECT_EQ(opened.value("session_digest", ""), expected_on_restore);
+  }
+  ASSERT_NO_FATAL_FAILURE(find_window());
+  quit(editor);
+  std::vector<std::string> left;
+  for (const auto& entry : std::filesystem::directory_iterator(dir.path())) {
+    if (entry.path().filename().string().starts_with(".recovery.json")) left.push_back(entry.path().filename().string());
+  }
+  EXPECT_TRUE(left.empty()) << "temporary recovery files remain, e.g. " << (left.empty() ? "" : left.front());
+  EXPECT_FALSE(std::filesystem::exists(recovery_file)) << "a clean exit removes the recovery file";
 }
 
 TEST_F(EditorGui, TransferModeMarkersUndoSaveAndCompute) {

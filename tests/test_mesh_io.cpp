@@ -1,5 +1,10 @@
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
 #include <fstream>
 
+#include "hdeform/atomic_file.h"
 #include "hdeform/errors.h"
 #include "hdeform/mesh_io.h"
 #include "hdeform/shapes.h"
@@ -83,6 +88,27 @@ TEST(MeshIo, WriteIsAtomicAndLeavesNoTemporaryFiles) {
   for ([[maybe_unused]] const auto& entry : std::filesystem::directory_iterator(dir.path())) ++files;
   EXPECT_EQ(files, 1);
   EXPECT_THROW(write_obj(dir.file("missing-dir/a.obj"), mesh), InputError);
+}
+
+TEST(MeshIo, TemporariesOfKilledWritersAreRemovedOthersKept) {
+  const test::TempDir dir;
+  const pid_t finished = fork();  // a process that has ended: its pid names no writer
+  if (finished == 0) _exit(0);
+  ASSERT_GT(finished, 0);
+  waitpid(finished, nullptr, 0);
+  const auto mine = std::to_string(getpid());
+  const auto parent = std::to_string(getppid());
+  const std::vector<std::string> kept{"a.obj", ".a.obj.tmp." + mine + ".1", ".a.obj.tmp." + parent + ".2", ".b.obj.tmp." + std::to_string(finished) + ".3",
+                                      ".a.obj.tmp.notapid.4"};
+  for (const auto& name : kept) dir.write(name, "v 0 0 0\n");
+  dir.write(".a.obj.tmp." + std::to_string(finished) + ".5", "v 0 0");  // killed mid-write
+  EXPECT_EQ(remove_abandoned_temporaries(dir.file("a.obj")), 1u);
+  std::vector<std::string> left;
+  for (const auto& entry : std::filesystem::directory_iterator(dir.path())) left.push_back(entry.path().filename().string());
+  std::sort(left.begin(), left.end());
+  std::vector<std::string> expected = kept;
+  std::sort(expected.begin(), expected.end());
+  EXPECT_EQ(left, expected);
 }
 
 }  // namespace

@@ -294,7 +294,8 @@ class EditorApp {
       set_mode(Mode::Transfer);
       transfer_->open(options_.transfer);
     }
-    recovery_ = std::make_unique<RecoveryWriter>(options_.recovery_file.empty() ? default_recovery_path() : options_.recovery_file);
+    recovery_ = std::make_unique<RecoveryWriter>(options_.recovery_file.empty() ? default_recovery_path() : options_.recovery_file,
+                                                 [](const Session& session) { print_json_line({{"event", "recovery"}, {"digest", session_digest(session)}}); });
     if (std::filesystem::exists(recovery_->path())) {
       if (options_.restore == "yes") return restore_recovery();
       if (options_.restore == "ask") {
@@ -447,7 +448,11 @@ class EditorApp {
     std::snprintf(path_buffer_, sizeof path_buffer_, "%s", output_path_.c_str());
     glfwSetWindowTitle(window_, ("hdeform — " + mesh_name_).c_str());
     status_ = "Opened " + mesh_name_;
-    print_json_line({{"event", "opened"}, {"mesh", mesh_name_}, {"vertices", rest.vertex_count()}, {"triangles", rest.triangle_count()}});
+    print_json_line({{"event", "opened"},
+                     {"mesh", mesh_name_},
+                     {"vertices", rest.vertex_count()},
+                     {"triangles", rest.triangle_count()},
+                     {"session_digest", session_digest(document_->session())}});
     document_->request_update();
     post_recovery();
   }

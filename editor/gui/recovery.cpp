@@ -3,6 +3,8 @@
 #include <cstdlib>
 #include <iostream>
 
+#include "hdeform/atomic_file.h"
+
 namespace hdeform::cli {
 
 std::filesystem::path default_recovery_path() {
@@ -16,7 +18,10 @@ std::filesystem::path default_recovery_path() {
   return std::filesystem::path(home != nullptr ? home : ".") / ".local" / "state" / "hdeform" / "recovery.json";
 }
 
-RecoveryWriter::RecoveryWriter(std::filesystem::path path) : path_(std::move(path)) { thread_ = std::thread([this] { run(); }); }
+RecoveryWriter::RecoveryWriter(std::filesystem::path path, Announce announce) : path_(std::move(path)), announce_(std::move(announce)) {
+  remove_abandoned_temporaries(path_);  // a run killed in the middle of a write
+  thread_ = std::thread([this] { run(); });
+}
 
 RecoveryWriter::~RecoveryWriter() {
   {
@@ -56,6 +61,7 @@ void RecoveryWriter::run() {
     writing_ = true;
     lock.unlock();
     try {
+      if (announce_) announce_(session);
       std::filesystem::create_directories(path_.parent_path());
       write_session(path_, session);
     } catch (const std::exception& error) {

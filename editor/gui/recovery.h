@@ -5,6 +5,7 @@
 // one, and the editor offers to restore it.
 #include <condition_variable>
 #include <filesystem>
+#include <functional>
 #include <mutex>
 #include <optional>
 #include <thread>
@@ -19,7 +20,11 @@ std::filesystem::path default_recovery_path();
 
 class RecoveryWriter {
  public:
-  explicit RecoveryWriter(std::filesystem::path path);
+  // Called on the writer's thread with each session just before it is written: whatever the
+  // file holds after a kill was announced first.
+  using Announce = std::function<void(const Session&)>;
+
+  explicit RecoveryWriter(std::filesystem::path path, Announce announce = {});
   ~RecoveryWriter();  // writes what is pending, then stops
   RecoveryWriter(const RecoveryWriter&) = delete;
   RecoveryWriter& operator=(const RecoveryWriter&) = delete;
@@ -36,6 +41,7 @@ class RecoveryWriter {
   void run();
 
   std::filesystem::path path_;
+  Announce announce_;
   std::mutex mutex_;
   std::condition_variable wake_;
   std::condition_variable written_;

@@ -1,6 +1,7 @@
 #include "hdeform/atomic_file.h"
 
 #include <fcntl.h>
+#include <signal.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -13,10 +14,13 @@
 namespace hdeform {
 namespace {
 
+// ".NAME.tmp.PID.RANDOM" beside NAME: hidden, and traceable to the process writing it.
+std::string temporary_prefix(const std::filesystem::path& path) { return "." + path.filename().string() + ".tmp."; }
+
 std::filesystem::path temporary_sibling(const std::filesystem::path& path) {
   std::random_device entropy;
   const auto tag = std::to_string(::getpid()) + "." + std::to_string(entropy());
-  return path.parent_path() / ("." + path.filename().string() + ".tmp." + tag);
+  return path.parent_path() / (temporary_prefix(path) + tag);
 }
 
 // Flushes the file's data to disk so that the rename never publishes an empty file after a crash.
@@ -28,6 +32,24 @@ void sync_file(const std::filesystem::path& path) {
 }
 
 }  // namespace
+
+std::size_t remove_abandoned_temporaries(const std::filesystem::path& path) {
+  const auto prefix = temporary_prefix(path);
+  const auto folder = path.parent_path().empty() ? std::filesystem::path(".") : path.parent_path();
+  std::error_code error;
+  std::size_t removed = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(folder, error)) {
+    const auto name = entry.path().filename().string();
+    if (!name.starts_with(prefix)) continue;
+    const auto tag = name.substr(prefix.size());
+    const auto dot = tag.find('.');
+    if (dot == 0 || dot == std::string::npos || tag.find_first_not_of("0123456789") != dot) continue;
+    const auto pid = static_cast<pid_t>(std::stol(tag.substr(0, dot)));
+    if (pid == ::getpid() || ::kill(pid, 0) == 0 || errno != ESRCH) continue;  // alive, or not ours to judge
+    if (std::filesystem::remove(entry.path(), error)) ++removed;
+  }
+  return removed;
+}
 
 void write_file_atomically(const std::filesystem::path& path, const std::function<void(std::ostream&)>& write) {
   const auto temporary = temporary_sibling(path);

@@ -12,4 +12,8 @@ namespace hdeform {
 // file cannot be created or written. The temporary file is removed on every failure.
 void write_file_atomically(const std::filesystem::path& path, const std::function<void(std::ostream&)>& write);
 
+// Removes the temporary files of writes to `path` whose process no longer runs (it was killed in
+// the middle of a write); returns how many. A write in progress elsewhere is left alone.
+std::size_t remove_abandoned_temporaries(const std::filesystem::path& path);
+
 }  // namespace hdeform
