@@ -1,6 +1,7 @@
 #include "document.h"
 
 #include <algorithm>
+#include <new>
 
 #include "hdeform/errors.h"
 
@@ -326,6 +327,8 @@ void Document::install_build() {
   if (build->error) {
     try {
       std::rethrow_exception(build->error);
+    } catch (const std::bad_alloc&) {
+      failure_ = "out of memory while setting up the solve (a smaller region of interest needs less)";
     } catch (const std::exception& error) {
       failure_ = error.what();
     }

@@ -1,7 +1,10 @@
+#include <chrono>
 #include <random>
+#include <thread>
 
 #include "document.h"
 #include "hdeform/engine/geometry_exchange.h"
+#include "hdeform/errors.h"
 #include "hdeform/shapes.h"
 #include "marker_editor.h"
 #include "mesh_picker.h"
@@ -179,6 +182,36 @@ TEST_F(DocumentTest, ARebuildRunsOffTheCallingThreadAndTheStateSaysSo) {
   document->wait_until_ready();
   EXPECT_EQ(document->solver_state(), cli::Document::SolverState::Ready);
   EXPECT_NE(document->field(), nullptr);
+}
+
+TEST_F(DocumentTest, AFailedSetUpKeepsThePreviousResultOnScreen) {
+  document->paint(shape.demo_constraints.fixed, cli::Layer::Fixed, false);
+  document->paint(shape.demo_constraints.handles[0], cli::Layer::Handle, false);
+  document->set_pose(0, Eigen::Vector3d::UnitX(), 0.8, 1.0, Eigen::Vector3d::Zero());
+  document->commit();
+  const Eigen::MatrixXd shown = document->result();
+  for (int k = 0; k < 200 && publications.load() == 0; ++k) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  ASSERT_GT(publications.load(), 0);
+  const int published = publications.load();
+  // Without a fixed vertex the system is singular: the set-up fails with the reason, and nothing
+  // replaces what the screen shows.
+  document->clear(cli::Layer::Fixed);
+  document->commit();
+  document->wait_until_ready();
+  EXPECT_EQ(document->solver_state(), cli::Document::SolverState::Failed);
+  EXPECT_FALSE(document->solver_message().empty());
+  document->set_pose(0, Eigen::Vector3d::UnitX(), 1.4, 1.0, Eigen::Vector3d::Zero());
+  document->commit();
+  EXPECT_EQ(document->request_update(), 0u);
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  EXPECT_EQ(publications.load(), published);
+  EXPECT_THROW((void)document->result(), SolveError);
+  // Undo brings the solvable state and its result back.
+  ASSERT_TRUE(document->undo());
+  ASSERT_TRUE(document->undo());
+  document->wait_until_ready();
+  EXPECT_EQ(document->solver_state(), cli::Document::SolverState::Ready);
+  EXPECT_EQ(document->result(), shown);
 }
 
 TEST(MarkerEditor, PairsAddMoveRemoveWithUndoAndOneMarkerPerVertex) {
