@@ -224,8 +224,8 @@ class BenchCommand final : public BatchCommand {
   int steps_ = 30;
   int threads_ = 0;
   bool quiet_ = false;
-  bool render_ = false;
 #ifdef HDEFORM_WITH_ENGINE
+  bool render_ = false;
   RenderBenchOptions render_options_;
 #endif
 };
