@@ -14,24 +14,8 @@
 namespace hdeform {
 namespace {
 
-struct Run {
-  int exit_code;
-  std::string out;
-  std::string err;
-};
-
-Run run(const test::TempDir& dir, const std::string& arguments) {
-  const auto err_file = dir.file("stderr.txt");
-  const std::string command = std::string(HDEFORM_EXECUTABLE) + " " + arguments + " 2>" + err_file.string();
-  FILE* pipe = popen(command.c_str(), "r");
-  std::string out;
-  std::array<char, 4096> buffer;
-  while (const auto n = std::fread(buffer.data(), 1, buffer.size(), pipe)) out.append(buffer.data(), n);
-  const int status = pclose(pipe);
-  std::ifstream err_stream(err_file);
-  std::stringstream err;
-  err << err_stream.rdbuf();
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out, err.str()};
+test::CommandOutcome run(const test::TempDir& dir, const std::string& arguments) {
+  return test::run_command(std::string(HDEFORM_EXECUTABLE) + " " + arguments, dir.path());
 }
 
 bool contains(const std::string& text, const std::string& fragment) { return text.find(fragment) != std::string::npos; }

@@ -22,26 +22,11 @@ namespace {
 
 const std::filesystem::path kCorpus = std::filesystem::path(HDEFORM_SOURCE_DIR) / "tests" / "corpus";
 
-struct Outcome {
-  int exit_code;
-  std::string out;
-  std::string err;
-};
+using Outcome = test::CommandOutcome;
 
 // Runs hdeform with `arguments` in `folder` (its working directory).
 Outcome run_in(const std::filesystem::path& folder, const std::string& arguments) {
-  const auto err_file = folder / "stderr.log";
-  const std::string command = "cd '" + folder.string() + "' && " + HDEFORM_EXECUTABLE + " " + arguments + " 2>'" + err_file.string() + "'";
-  FILE* pipe = popen(command.c_str(), "r");
-  std::string out;
-  std::array<char, 4096> buffer;
-  while (const auto n = std::fread(buffer.data(), 1, buffer.size(), pipe)) out.append(buffer.data(), n);
-  const int status = pclose(pipe);
-  std::ifstream err_stream(err_file);
-  std::stringstream err;
-  err << err_stream.rdbuf();
-  std::filesystem::remove(err_file);
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out, err.str()};
+  return test::run_command("cd '" + folder.string() + "' && " + HDEFORM_EXECUTABLE + " " + arguments, folder);
 }
 
 std::set<std::string> listing(const std::filesystem::path& folder) {

@@ -1,8 +1,13 @@
 #include "test_support.h"
 
+#include <sys/wait.h>
+
+#include <array>
+#include <cstdio>
 #include <cstdlib>
 #include <fstream>
 #include <random>
+#include <sstream>
 
 namespace hdeform::test {
 
@@ -77,6 +82,20 @@ double relative_difference(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
   const double scale = b.cwiseAbs().maxCoeff();
   const double difference = (a - b).cwiseAbs().maxCoeff();
   return scale > 0.0 ? difference / scale : difference;
+}
+
+CommandOutcome run_command(const std::string& command, const std::filesystem::path& scratch) {
+  const auto err_file = scratch / ".command-stderr";
+  FILE* pipe = popen((command + " 2>'" + err_file.string() + "'").c_str(), "r");
+  std::string out;
+  std::array<char, 4096> buffer;
+  while (const auto n = std::fread(buffer.data(), 1, buffer.size(), pipe)) out.append(buffer.data(), n);
+  const int status = pclose(pipe);
+  std::ifstream err_stream(err_file);
+  std::stringstream err;
+  err << err_stream.rdbuf();
+  std::filesystem::remove(err_file);
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out, err.str()};
 }
 
 }  // namespace hdeform::test

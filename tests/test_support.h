@@ -32,6 +32,15 @@ Mesh planar_grid(int cells, double size = 1.0, double jitter = 0.0, unsigned see
 // Vertices of a planar grid on its outer boundary.
 std::vector<int> grid_boundary(int cells);
 
+// What a shell command did: its exit status (-1 when it did not exit normally) and its output.
+struct CommandOutcome {
+  int exit_code;
+  std::string out;
+  std::string err;
+};
+// Runs `command` with /bin/sh; stderr passes through a file in `scratch`, removed afterwards.
+CommandOutcome run_command(const std::string& command, const std::filesystem::path& scratch);
+
 // A fresh temporary directory, removed at destruction.
 class TempDir {
  public:
