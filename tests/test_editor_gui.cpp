@@ -98,6 +98,9 @@ class Editor {
         }
       }
       close(fd);
+      std::lock_guard lock(mutex_);
+      output_closed_ = true;
+      arrived_.notify_all();
     });
   }
   ~Editor() {
@@ -109,16 +112,22 @@ class Editor {
   json wait_for(const std::string& name, std::chrono::seconds timeout = 120s, std::size_t after = 0) {
     std::unique_lock lock(mutex_);
     json found;
-    const bool arrived = arrived_.wait_for(lock, timeout, [&] {
+    bool arrived = false;
+    arrived_.wait_for(lock, timeout, [&] {
       for (std::size_t k = after; k < events_.size(); ++k) {
         if (events_[k].value("event", "") == name) {
           found = events_[k];
+          arrived = true;
           return true;
         }
       }
-      return false;
+      return output_closed_;
     });
-    if (!arrived) ADD_FAILURE() << "the editor did not report '" << name << "' within " << timeout.count() << " s";
+    if (!arrived && output_closed_) {
+      ADD_FAILURE() << "the editor closed its output (ended?) before reporting '" << name << "'";
+    } else if (!arrived) {
+      ADD_FAILURE() << "the editor did not report '" << name << "' within " << timeout.count() << " s";
+    }
     return found;
   }
   std::size_t event_count() {
@@ -140,6 +149,7 @@ class Editor {
           state = events_[seen].value("state", "");
           last_change = Clock::now();
         }
+        if (output_closed_) break;
       }
       if (state == "ready" && Clock::now() - last_change > quiet) return state;
       std::this_thread::sleep_for(50ms);
@@ -181,6 +191,7 @@ class Editor {
   std::thread reader_;
   std::mutex mutex_;
   std::condition_variable arrived_;
+  bool output_closed_ = false;  // the editor's stdout reached its end: no more events will come
   std::vector<json> events_;
   std::vector<Clock::time_point> arrival_;
 };
