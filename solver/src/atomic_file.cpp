@@ -15,7 +15,13 @@ namespace hdeform {
 namespace {
 
 // ".NAME.tmp.PID.RANDOM" beside NAME: hidden, and traceable to the process writing it.
-std::string temporary_prefix(const std::filesystem::path& path) { return "." + path.filename().string() + ".tmp."; }
+// (Appended rather than "." + name: GCC 12 warns falsely, -Wrestrict, about that operator+.)
+std::string temporary_prefix(const std::filesystem::path& path) {
+  std::string prefix = ".";
+  prefix += path.filename().string();
+  prefix += ".tmp.";
+  return prefix;
+}
 
 std::filesystem::path temporary_sibling(const std::filesystem::path& path) {
   std::random_device entropy;
