@@ -99,7 +99,7 @@ TEST(MeshIo, TemporariesOfKilledWritersAreRemovedOthersKept) {
   const auto mine = std::to_string(getpid());
   const auto parent = std::to_string(getppid());
   const std::vector<std::string> kept{"a.obj", ".a.obj.tmp." + mine + ".1", ".a.obj.tmp." + parent + ".2", ".b.obj.tmp." + std::to_string(finished) + ".3",
-                                      ".a.obj.tmp.notapid.4"};
+                                      ".a.obj.tmp.notapid.4", ".a.obj.tmp.99999999999999999999.6"};
   for (const auto& name : kept) dir.write(name, "v 0 0 0\n");
   dir.write(".a.obj.tmp." + std::to_string(finished) + ".5", "v 0 0");  // killed mid-write
   EXPECT_EQ(remove_abandoned_temporaries(dir.file("a.obj")), 1u);

@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <charconv>
 #include <cstring>
 #include <fstream>
 #include <random>
@@ -50,7 +51,8 @@ std::size_t remove_abandoned_temporaries(const std::filesystem::path& path) {
     const auto tag = name.substr(prefix.size());
     const auto dot = tag.find('.');
     if (dot == 0 || dot == std::string::npos || tag.find_first_not_of("0123456789") != dot) continue;
-    const auto pid = static_cast<pid_t>(std::stol(tag.substr(0, dot)));
+    pid_t pid = 0;
+    if (std::from_chars(tag.data(), tag.data() + dot, pid).ec != std::errc()) continue;  // too large for a pid
     if (pid == ::getpid() || ::kill(pid, 0) == 0 || errno != ESRCH) continue;  // alive, or not ours to judge
     if (std::filesystem::remove(entry.path(), error)) ++removed;
   }
