@@ -95,6 +95,9 @@ CommandOutcome run_command(const std::string& command, const std::filesystem::pa
   std::stringstream err;
   err << err_stream.rdbuf();
   std::filesystem::remove(err_file);
+  // Passed on, so that the test's own output holds what every command said: a failure shows it,
+  // and in a sanitizer build a report from the command fails the test (tests/CMakeLists.txt).
+  std::fputs(err.str().c_str(), stderr);
   return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, out, err.str()};
 }
 

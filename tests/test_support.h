@@ -38,7 +38,8 @@ struct CommandOutcome {
   std::string out;
   std::string err;
 };
-// Runs `command` with /bin/sh; stderr passes through a file in `scratch`, removed afterwards.
+// Runs `command` with /bin/sh; its stderr is captured through a file in `scratch` (removed
+// afterwards) and also copied to this process's stderr.
 CommandOutcome run_command(const std::string& command, const std::filesystem::path& scratch);
 
 // A fresh temporary directory, removed at destruction.
