@@ -327,6 +327,7 @@ Mesh load_session_mesh(const Session& session, const SessionSource* session_sour
 }
 
 Eigen::MatrixXd replay_session(const Session& session, const Mesh& base, const DeformerOptions& options, const ProgressCallback& progress) {
+  validate_mesh(base, session.mesh.empty() ? "session mesh" : session.mesh);
   Mesh rest = base;
   auto run_stage = [&](const EditStage& stage) {
     Deformer deformer(rest, stage.constraints(), options, progress);

@@ -1,4 +1,10 @@
+#include <limits>
+
+#include "hdeform/deformation_gradient.h"
 #include "hdeform/deformer.h"
+#include "hdeform/errors.h"
+#include "hdeform/laplacian.h"
+#include "hdeform/transfer.h"
 #include "hdeform/mesh_check.h"
 #include "hdeform/mesh_io.h"
 #include "hdeform/shapes.h"
@@ -57,6 +63,52 @@ TEST(MeshCheck, TroubledGeometryStillDeformsAndTheUnconstrainedPartsStayPut) {
   // The unconstrained copy and the unreferenced vertex stay exactly where they were.
   for (Eigen::Index v = n; v <= 2 * n; ++v) EXPECT_EQ(positions.row(v), mesh.positions.row(v)) << "vertex " << v;
   EXPECT_GT((positions.topRows(n) - mesh.positions.topRows(n)).cwiseAbs().maxCoeff(), 0.05);
+}
+
+// Meshes that no reader would build but a caller of the library can: each must be refused by
+// every public entry point, naming the element, before anything reads past an array.
+std::vector<std::pair<std::string, Mesh>> broken_meshes(const Mesh& good) {
+  Mesh out_of_range = good, negative = good, not_a_number = good;
+  out_of_range.triangles(7, 2) = static_cast<int>(good.vertex_count()) + 3;
+  negative.triangles(2, 0) = -4;
+  not_a_number.positions(5, 2) = std::numeric_limits<double>::quiet_NaN();
+  return {{"triangle 7 corner 2 has vertex index " + std::to_string(good.vertex_count() + 3), out_of_range},
+          {"triangle 2 corner 0 has vertex index -4", negative},
+          {"vertex 5 has a non-finite coordinate z = nan", not_a_number}};
+}
+
+template <class Call>
+void expect_refusal(const std::string& entry, const std::string& fragment, Call&& call) {
+  try {
+    call();
+    ADD_FAILURE() << entry << " accepted a mesh with " << fragment;
+  } catch (const InputError& error) {
+    EXPECT_NE(std::string(error.what()).find(fragment), std::string::npos) << entry << ": " << error.what();
+  }
+}
+
+TEST(MeshCheck, EveryEntryPointRefusesABrokenMeshNamingTheElement) {
+  const auto shape = make_shape(ShapeKind::Cylinder, 16);
+  const MarkerPairs markers{{0, 40, 80, 120}, {0, 40, 80, 120}};
+  for (const auto& [fragment, mesh] : broken_meshes(shape.mesh)) {
+    expect_refusal("Deformer", fragment, [&] { Deformer(mesh, shape.demo_constraints); });
+    expect_refusal("cotangent_weights (Laplacian, harmonic field)", fragment, [&] { cotangent_weights(mesh); });
+    expect_refusal("cotangent_laplacian", fragment, [&] { cotangent_laplacian(mesh); });
+    expect_refusal("DeformationTransfer (source)", "source mesh: " + fragment,
+                   [&] { DeformationTransfer(mesh, shape.mesh, markers); });
+    expect_refusal("DeformationTransfer (target)", "target mesh: " + fragment,
+                   [&] { DeformationTransfer(shape.mesh, mesh, markers); });
+    for (const auto method : {TransferMethod::Correspondence, TransferMethod::Interpolation}) {
+      TransferOptions options;
+      options.method = method;
+      expect_refusal("DeformationTransfer (" + std::string(to_string(method)) + ")", fragment,
+                     [&] { DeformationTransfer(shape.mesh, mesh, markers, options); });
+    }
+  }
+  std::vector<Eigen::Matrix3d> gradients;
+  expect_refusal("deformation_gradients", "posed positions", [&] {
+    deformation_gradients(shape.mesh, shape.mesh.positions.topRows(4), gradients);
+  });
 }
 
 TEST(MeshCheck, StanfordBunnyWithUnreferencedVerticesAndHoles) {

@@ -2,10 +2,14 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
+#include <cmath>
 #include <fstream>
+#include <optional>
 
 #include "hdeform/atomic_file.h"
 #include "hdeform/errors.h"
+#include "hdeform/laplacian.h"
 #include "hdeform/mesh_io.h"
 #include "hdeform/shapes.h"
 #include "test_support.h"
@@ -67,6 +71,156 @@ TEST(MeshIo, MalformedFilesGiveTheirErrors) {
   expect_read_error(dir, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2\n", {":4:", "at least 3"});
   expect_read_error(dir, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 a 3\n", {":4:", "not an index"});
   expect_read_error(dir, std::string("v 0 0 0\n\x89PNG\x01\x02\x00garbage", 22), {":2:", "binary"});
+}
+
+// Reads OBJ text, or returns the refusal's message.
+struct ReadResult {
+  std::optional<Mesh> mesh;
+  std::string error;
+};
+ReadResult read_text(const test::TempDir& dir, const std::string& content) {
+  dir.write("in.obj", content);
+  try {
+    return {read_obj(dir.file("in.obj")), ""};
+  } catch (const InputError& error) {
+    return {std::nullopt, error.what()};
+  }
+}
+
+// Issue 15, the file that once read past the mesh: a lone CR was a line end for one reading of the file and
+// a blank for another, so indices were checked against 3 vertices and the mesh had 4.
+TEST(MeshIo, LoneCarriageReturnEndsALineAndIndicesMatchTheMeshBuilt) {
+  const test::TempDir dir;
+  const auto read = read_text(dir, std::string("-\rv 0 0 0\nv 1 0 0\nv 0 1 0\nv 1 1 0\nf -1 -2 -3\n"));
+  ASSERT_TRUE(read.mesh) << read.error;
+  EXPECT_EQ(read.mesh->vertex_count(), 4);
+  ASSERT_EQ(read.mesh->triangle_count(), 1);
+  EXPECT_EQ(read.mesh->triangles.row(0), Eigen::RowVector3i(3, 2, 1));
+  EXPECT_NO_THROW(validate_mesh(*read.mesh));
+
+  // The input libFuzzer found (base64 in issue 15): five vertices, one face (-1 02 -3).
+  const std::string found("\x89\n\r\n-\rv 0 0 0\nv 1 0 0\nv 0 1 0 0\nv 0 1 0\nv 1 1 0\nf -1 02 -3\n 0 0 0\nv01 0 0 1 1 1\n");
+  const auto fuzzed = read_text(dir, found);
+  ASSERT_TRUE(fuzzed.mesh) << fuzzed.error;
+  EXPECT_EQ(fuzzed.mesh->vertex_count(), 5);
+  ASSERT_EQ(fuzzed.mesh->triangle_count(), 1);
+  EXPECT_EQ(fuzzed.mesh->triangles.row(0), Eigen::RowVector3i(4, 1, 2));
+  const auto weights = cotangent_weights(*fuzzed.mesh);  // where the overflow was
+  EXPECT_EQ(weights.kind.size(), 1u);
+}
+
+// The same mesh written every way a text file can end its lines and lay out its blanks.
+TEST(MeshIo, LineEndsBlanksMarksAndContinuationsReadAsTheLfOriginal) {
+  const test::TempDir dir;
+  const std::string original =
+      "# a quad, a triangle and a relative face\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 2 0.5 0.25\n"
+      "f 1 2 3 4\nf 2 5 3\nf -5 -4 -1\n";
+  const auto reference = read_text(dir, original);
+  ASSERT_TRUE(reference.mesh) << reference.error;
+  ASSERT_EQ(reference.mesh->triangle_count(), 4);
+  const auto replace_all = [](std::string text, const std::string& from, const std::string& to) {
+    for (std::size_t at = 0; (at = text.find(from, at)) != std::string::npos; at += to.size()) text.replace(at, from.size(), to);
+    return text;
+  };
+  std::string mixed;  // LF, CRLF and CR in turn
+  int line = 0;
+  for (const char c : original) {
+    if (c != '\n') {
+      mixed += c;
+      continue;
+    }
+    mixed += std::array<const char*, 3>{"\n", "\r\n", "\r"}[static_cast<std::size_t>(line++ % 3)];
+  }
+  const std::vector<std::pair<std::string, std::string>> variants = {
+      {"CRLF", replace_all(original, "\n", "\r\n")},
+      {"lone CR", replace_all(original, "\n", "\r")},
+      {"mixed line ends", mixed},
+      {"byte-order mark", "\xEF\xBB\xBF" + original},
+      {"tabs", replace_all(original, " ", "\t")},
+      {"form feeds and vertical tabs", replace_all(replace_all(original, "v ", "v\f"), "f ", "f\v ")},
+      {"trailing blanks and blank lines", replace_all(original, "\n", " \t\n\n")},
+      {"no final line end", original.substr(0, original.size() - 1)},
+      {"backslash continuations", replace_all(replace_all(original, "f 1 2 ", "f 1 \\\n2 \\\r\n"), "v 2 0.5", "v \\\n 2 0.5")},
+      {"comments after values", replace_all(original, "\n", " # note\n")},
+  };
+  for (const auto& [name, content] : variants) {
+    const auto read = read_text(dir, content);
+    ASSERT_TRUE(read.mesh) << name << ": " << read.error;
+    EXPECT_EQ(read.mesh->positions, reference.mesh->positions) << name;
+    EXPECT_EQ(read.mesh->triangles, reference.mesh->triangles) << name;
+  }
+}
+
+TEST(MeshIo, LineNumbersCountEveryKindOfLineEnd) {
+  const test::TempDir dir;
+  // Line 4 is bad whichever line ends lead up to it, and a continued line is named by its start.
+  for (const std::string end : {"\n", "\r\n", "\r"}) {
+    const auto read = read_text(dir, "v 0 0 0" + end + "v 1 0 0" + end + "v 0 1 0" + end + "f 1 2 9" + end);
+    EXPECT_NE(read.error.find(":4: face index 9 out of range"), std::string::npos) << read.error;
+  }
+  const auto continued = read_text(dir, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 \\\n2 \\\n x\n");
+  EXPECT_NE(continued.error.find(":4: face vertex 'x' is not an index"), std::string::npos) << continued.error;
+  const auto binary = read_text(dir, std::string("v 0 0 0\rv 1 0 0\r\x01", 17));
+  EXPECT_NE(binary.error.find(":3: binary data"), std::string::npos) << binary.error;
+}
+
+TEST(MeshIo, FaceVertexFormsAndTheirErrors) {
+  const test::TempDir dir;
+  const auto read = read_text(dir, "v 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nvn 0 0 1\nf 1/1 2/1/1 3//1\nf 1/ 2// 3/1/\n");
+  ASSERT_TRUE(read.mesh) << read.error;
+  EXPECT_EQ(read.mesh->triangle_count(), 2);
+  EXPECT_NE(read_text(dir, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/x 2 3\n").error.find(":4: face vertex '1/x': 'x' is not a texture or normal index"),
+            std::string::npos);
+  EXPECT_NE(read_text(dir, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1/1/1/1 2 3\n").error.find(":4: face vertex '1/1/1/1' has more than three"),
+            std::string::npos);
+  EXPECT_NE(read_text(dir, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\nv 1 2 3 4 5 6 7 8\n").error.find(":5: vertex has 8 values"),
+            std::string::npos);
+  EXPECT_NE(read_text(dir, "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 99999999999\n").error.find(":4: face index 99999999999 out of range"),
+            std::string::npos);
+  // Extra vertex values (w, or a colour) are read and dropped.
+  const auto coloured = read_text(dir, "v 0 0 0 1 0 0\nv 1 0 0 0.5\nv 0 1 0 0 0 1 1\nf 1 2 3\n");
+  ASSERT_TRUE(coloured.mesh) << coloured.error;
+  EXPECT_EQ(coloured.mesh->positions.row(2), Eigen::RowVector3d(0, 1, 0));
+}
+
+TEST(MeshIo, QuadsSplitAlongTheShorterDiagonalLargerPolygonsIntoAFan) {
+  const test::TempDir dir;
+  // The quad's shorter diagonal joins 0-based corners 1 and 3 (10 against 17); listed from its
+  // last corner, it is split along the same diagonal.
+  const auto read = read_text(dir, "v 0 0 0\nv 3 0 0\nv 4 1 0\nv 0 1 0\nv 9 9 9\nf 1 2 3 4\nf 4 1 2 3\nf 1 2 3 4 5\n");
+  ASSERT_TRUE(read.mesh) << read.error;
+  ASSERT_EQ(read.mesh->triangle_count(), 7);
+  const Eigen::MatrixXi expected = (Eigen::MatrixXi(7, 3) << 0, 1, 3, 1, 2, 3,
+                                    3, 0, 1, 3, 1, 2,
+                                    0, 1, 2, 0, 2, 3, 0, 3, 4)
+                                       .finished();
+  EXPECT_EQ(read.mesh->triangles, expected);
+}
+
+TEST(MeshIo, ValidateMeshNamesTheElement) {
+  Mesh mesh = make_shape(ShapeKind::Sphere, 8).mesh;
+  EXPECT_NO_THROW(validate_mesh(mesh));
+  const auto message = [](const Mesh& bad) {
+    try {
+      validate_mesh(bad, "thing.obj");
+    } catch (const InputError& error) {
+      return std::string(error.what());
+    }
+    return std::string("(accepted)");
+  };
+  Mesh out_of_range = mesh;
+  out_of_range.triangles(5, 1) = static_cast<int>(mesh.vertex_count());
+  EXPECT_EQ(message(out_of_range), "thing.obj: triangle 5 corner 1 has vertex index " + std::to_string(mesh.vertex_count()) +
+                                       ", out of range (the mesh has " + std::to_string(mesh.vertex_count()) + " vertices)");
+  Mesh negative = mesh;
+  negative.triangles(0, 2) = -1;
+  EXPECT_NE(message(negative).find("triangle 0 corner 2 has vertex index -1"), std::string::npos);
+  Mesh not_a_number = mesh;
+  not_a_number.positions(3, 1) = std::nan("");
+  EXPECT_EQ(message(not_a_number), "thing.obj: vertex 3 has a non-finite coordinate y = nan");
+  Mesh wide = mesh;
+  wide.positions.conservativeResize(Eigen::NoChange, 4);
+  EXPECT_NE(message(wide).find("positions must have 3 columns"), std::string::npos);
 }
 
 TEST(MeshIo, UnreadableFileNamesTheFile) {

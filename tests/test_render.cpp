@@ -1,11 +1,13 @@
 // Rendering on the Vulkan device (lavapipe in CI) with the validation layer on.
 #include <algorithm>
 #include <cstdio>
+#include <limits>
 #include <numbers>
 #include <thread>
 
 #include "hdeform/deformer.h"
 #include "hdeform/dirichlet_system.h"
+#include "hdeform/errors.h"
 #include "hdeform/engine/frame_slots.h"
 #include "hdeform/engine/mesh_renderer.h"
 #include "hdeform/engine/offscreen.h"
@@ -159,6 +161,25 @@ TEST_F(Render, EveryOptionRendersWithoutValidationMessages) {
   shot.settings.flat_shading = false;
   shot.settings.back_faces = engine::RenderSettings::BackFaces::Cull;
   engine::render_offscreen(*context, scene, shot);
+}
+
+TEST_F(Render, ABrokenMeshIsRefusedBeforeAnythingIsUploaded) {
+  auto scene = cactus_scenes().bent;
+  scene.triangles(11, 2) = static_cast<int>(scene.positions.rows());
+  engine::Shot shot;
+  shot.width = 64;
+  shot.height = 48;
+  EXPECT_THROW(engine::render_offscreen(*context, scene, shot), InputError);
+  scene = cactus_scenes().bent;
+  scene.positions(4, 0) = std::numeric_limits<double>::infinity();
+  try {
+    engine::render_offscreen(*context, scene, shot);
+    ADD_FAILURE() << "drew a mesh with an infinite coordinate";
+  } catch (const InputError& error) {
+    EXPECT_NE(std::string(error.what()).find("vertex 4 has a non-finite coordinate x = inf"), std::string::npos) << error.what();
+  }
+  const auto triangles = cactus_scenes().bent.triangles;
+  EXPECT_THROW(engine::VertexNormals(triangles, triangles.maxCoeff()), InputError);  // one vertex too few
 }
 
 TEST_F(Render, BackFacesOfAnOpenMeshAreTinted) {

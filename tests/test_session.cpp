@@ -70,6 +70,19 @@ TEST(Session, AppliedStagesBecomeTheRestShapeInOrder) {
   EXPECT_EQ(cli::replay_session(session, base, {}), rest.positions);  // nothing current: the applied rest
 }
 
+TEST(Session, ReplayRefusesABrokenBaseMeshEvenWithNothingToDeform) {
+  Session session = demo_session();
+  Mesh base = cli::load_session_mesh(session);
+  base.triangles(3, 1) = static_cast<int>(base.vertex_count());
+  session.current.handles.clear();
+  try {
+    cli::replay_session(session, base, {});
+    ADD_FAILURE() << "replayed on a mesh with an index out of range";
+  } catch (const InputError& error) {
+    EXPECT_NE(std::string(error.what()).find("triangle 3 corner 1 has vertex index"), std::string::npos) << error.what();
+  }
+}
+
 // Expects read_session (and the mesh check) to fail with `file:line` and the fragment.
 void expect_session_error(const test::TempDir& dir, const std::string& text, std::size_t line, const std::string& fragment) {
   dir.write("bad.json", text);

@@ -3,6 +3,8 @@
 #include <Eigen/Geometry>
 #include <tbb/parallel_for.h>
 
+#include "hdeform/mesh.h"
+
 namespace hdeform::engine {
 
 GeometryExchange::GeometryExchange(std::size_t vertex_count) : vertex_count_(vertex_count) {
@@ -25,6 +27,7 @@ const GeometrySnapshot* GeometryExchange::acquire() {
 VertexNormals::VertexNormals(const Eigen::MatrixXi& triangles, Eigen::Index vertex_count)
     : triangles_(triangles), triangle_start_(static_cast<std::size_t>(vertex_count) + 1, 0),
       face_normals_(static_cast<std::size_t>(triangles.rows())) {
+  validate_triangles(triangles, vertex_count, "mesh to draw");
   for (Eigen::Index t = 0; t < triangles.rows(); ++t) {
     for (int k = 0; k < 3; ++k) ++triangle_start_[static_cast<std::size_t>(triangles(t, k)) + 1];
   }

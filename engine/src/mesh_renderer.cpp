@@ -6,6 +6,7 @@
 #include <cstring>
 
 #include "hdeform/engine/palette.h"
+#include "hdeform/mesh.h"
 #include "shaders/ground_frag.h"
 #include "shaders/ground_vert.h"
 #include "shaders/legend_frag.h"
@@ -278,6 +279,7 @@ void MeshRenderer::release_mesh_buffers() {
 }
 
 void MeshRenderer::set_mesh(const Eigen::MatrixXi& triangles, GeometryExchange& geometry, const Bounds& rest, UpAxis up) {
+  validate_triangles(triangles, static_cast<Eigen::Index>(geometry.vertex_count()), "mesh to draw");
   vkDeviceWaitIdle(context_.device());
   release_mesh_buffers();
   geometry_ = &geometry;

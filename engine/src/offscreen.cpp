@@ -1,8 +1,11 @@
 #include "hdeform/engine/offscreen.h"
 
+#include "hdeform/mesh.h"
+
 namespace hdeform::engine {
 
 Pixels render_offscreen(const VulkanContext& context, const Scene& scene, const Shot& shot) {
+  validate_mesh(scene.positions, scene.triangles, "mesh to draw");
   OffscreenTarget target(context, shot.width, shot.height, shot.samples);
   MeshRenderer renderer(context, target.render_pass(), target.format(), 1);
   const Bounds bounds = scene.rest_bounds.radius() > 0.0f ? scene.rest_bounds : Bounds::of(scene.positions);

@@ -1,5 +1,7 @@
 #include "hdeform/deformation_gradient.h"
 
+#include "hdeform/errors.h"
+
 #include <Eigen/LU>
 #include <Eigen/SVD>
 #include <cmath>
@@ -39,6 +41,10 @@ Eigen::Matrix3d deformation_gradient(const Eigen::Vector3d& v1, const Eigen::Vec
 }
 
 void deformation_gradients(const Mesh& rest, const Eigen::MatrixXd& posed, std::vector<Eigen::Matrix3d>& gradients) {
+  if (posed.rows() != rest.vertex_count() || posed.cols() != 3) {
+    throw InputError("posed positions: " + std::to_string(posed.rows()) + "×" + std::to_string(posed.cols()) + " for a mesh of " +
+                     std::to_string(rest.vertex_count()) + " vertices");
+  }
   const auto count = static_cast<std::size_t>(rest.triangle_count());
   gradients.resize(count);
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count, 512), [&](const auto& range) {

@@ -67,6 +67,7 @@ Deformer::Deformer(Mesh rest, EditConstraints constraints, DeformerOptions optio
   auto report = [&](std::string_view stage) {
     if (progress) progress(stage);
   };
+  validate_mesh(rest_);
   if (constraints_.handles.empty()) throw InputError("no handle: at least one handle vertex list is needed");
 
   report("building the cotangent Laplacian");

@@ -36,6 +36,7 @@ std::size_t CotangentWeights::count(ElementKind which) const {
 }
 
 CotangentWeights cotangent_weights(const Mesh& mesh) {
+  validate_mesh(mesh);
   const auto m = mesh.triangle_count();
   CotangentWeights weights;
   weights.half_cotangent = Eigen::MatrixXd::Zero(m, 3);

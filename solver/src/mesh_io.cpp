@@ -1,13 +1,8 @@
 #include "hdeform/mesh_io.h"
 
-#ifndef TINYOBJLOADER_USE_DOUBLE
-#define TINYOBJLOADER_USE_DOUBLE  // must match the tinyobjloader_double library
-#endif
-#include <tiny_obj_loader.h>
-
 #include <array>
 #include <charconv>
-#include <sstream>
+#include <climits>
 
 #include "hdeform/atomic_file.h"
 #include "hdeform/errors.h"
@@ -19,60 +14,69 @@ namespace {
 using detail::fail_at;
 using detail::quoted;
 
-// tinyobjloader turns unparsable numbers into zeros and drops faces with bad indices without
-// saying where. This pass runs first and rejects exactly those inputs with file and line, so
-// tinyobjloader only ever sees faces it reads correctly. It also keeps the coordinates: parsed
-// with from_chars they are correctly rounded, where tinyobjloader's parser may be off in the
-// last bits.
-std::vector<double> scan_obj_vertices(const std::filesystem::path& path, std::string_view content) {
-  std::vector<double> coordinates;
-  detail::reject_binary(path, content);
-  long long vertex_count = 0;
-  std::size_t face_count = 0;
-  std::vector<std::string_view> tokens;
-  // Positive indices may refer forward; check them against the final count afterwards.
-  struct ForwardReference { std::size_t line; long long index; };
-  std::vector<ForwardReference> forward_references;
+// The faces as written: their corners' vertex indices, 0-based and resolved.
+struct Polygons {
+  std::vector<int> corners;
+  std::vector<std::size_t> start{0};  // polygon p: corners[start[p] .. start[p + 1])
+  std::size_t count() const { return start.size() - 1; }
+};
 
-  detail::for_each_line(content, [&](std::size_t line, std::string_view text) {
-    detail::split_tokens(text, tokens);
-    if (tokens.empty()) return;
-    const std::string_view keyword = tokens[0];
-    if (keyword == "v") {
-      if (tokens.size() < 4) fail_at(path, line, "vertex needs 3 coordinates, found " + std::to_string(tokens.size() - 1));
-      for (std::size_t k = 1; k < tokens.size() && k <= 7; ++k) {
-        const auto value = detail::parse_double(tokens[k]);
-        if (!value) fail_at(path, line, "vertex coordinate " + quoted(tokens[k]) + " is not a number");
-        if (k <= 3 && !std::isfinite(*value)) fail_at(path, line, "non-finite vertex coordinate " + quoted(tokens[k]));
-        if (k <= 3) coordinates.push_back(*value);
-      }
-      ++vertex_count;
-    } else if (keyword == "f") {
-      if (tokens.size() < 4) fail_at(path, line, "face needs at least 3 vertices, found " + std::to_string(tokens.size() - 1));
-      for (std::size_t k = 1; k < tokens.size(); ++k) {
-        const std::string_view reference = tokens[k].substr(0, tokens[k].find('/'));
-        const auto index = detail::parse_integer(reference);
-        if (!index) fail_at(path, line, "face vertex " + quoted(tokens[k]) + " is not an index");
-        if (*index == 0) fail_at(path, line, "face vertex index 0 (OBJ indices start at 1)");
-        if (*index < 0 && -*index > vertex_count) {
-          fail_at(path, line, "relative face index " + std::to_string(*index) + " reaches before the first vertex (" +
-                                  std::to_string(vertex_count) + " defined so far)");
-        }
-        if (*index > 0) forward_references.push_back({line, *index});
-      }
-      ++face_count;
-    }
-  });
-  for (const auto& reference : forward_references) {
-    if (reference.index > vertex_count) {
-      fail_at(path, reference.line, "face index " + std::to_string(reference.index) + " out of range (the file has " +
-                                        std::to_string(vertex_count) + " vertices)");
+// "v", "v/vt", "v//vn" or "v/vt/vn": the vertex part, checked to be a non-zero integer; the
+// other parts are ignored but must be empty or integers.
+long long face_vertex_reference(const std::filesystem::path& path, std::size_t line, std::string_view token) {
+  std::array<std::string_view, 3> parts;
+  std::size_t part_count = 0;
+  for (std::size_t begin = 0;;) {
+    const std::size_t slash = token.find('/', begin);
+    if (part_count == parts.size()) fail_at(path, line, "face vertex " + quoted(token) + " has more than three '/' parts");
+    parts[part_count++] = token.substr(begin, slash == std::string_view::npos ? std::string_view::npos : slash - begin);
+    if (slash == std::string_view::npos) break;
+    begin = slash + 1;
+  }
+  const auto index = detail::parse_integer(parts[0]);
+  if (!index) fail_at(path, line, "face vertex " + quoted(token) + " is not an index");
+  for (std::size_t k = 1; k < part_count; ++k) {
+    if (!parts[k].empty() && !detail::parse_integer(parts[k])) {
+      fail_at(path, line, "face vertex " + quoted(token) + ": " + quoted(parts[k]) + " is not a texture or normal index");
     }
   }
-  if (face_count == 0) {
-    throw InputError(path.string() + (vertex_count == 0 ? ": empty: no vertices and no triangles" : ": no triangles (the file has no faces)"));
+  if (*index == 0) fail_at(path, line, "face vertex index 0 (OBJ indices start at 1)");
+  return *index;
+}
+
+// Summed in a fixed order, so that a tie between the two diagonals is decided the same everywhere.
+double squared_distance(const Eigen::MatrixXd& positions, int a, int b) {
+  double sum = 0.0;
+  for (int c = 0; c < 3; ++c) {
+    const double d = positions(b, c) - positions(a, c);
+    sum += d * d;
   }
-  return coordinates;
+  return sum;
+}
+
+// Quads are split along their shorter diagonal (a tie takes 1-3), larger polygons into a fan
+// from their first corner.
+void triangulate(const Polygons& polygons, const Eigen::MatrixXd& positions, Eigen::MatrixXi& triangles) {
+  std::size_t count = 0;
+  for (std::size_t p = 0; p < polygons.count(); ++p) count += polygons.start[p + 1] - polygons.start[p] - 2;
+  triangles.resize(static_cast<Eigen::Index>(count), 3);
+  Eigen::Index t = 0;
+  const auto add = [&](int a, int b, int c) { triangles.row(t++) << a, b, c; };
+  for (std::size_t p = 0; p < polygons.count(); ++p) {
+    const int* corner = polygons.corners.data() + polygons.start[p];
+    const std::size_t size = polygons.start[p + 1] - polygons.start[p];
+    if (size == 4) {
+      if (squared_distance(positions, corner[0], corner[2]) < squared_distance(positions, corner[1], corner[3])) {
+        add(corner[0], corner[1], corner[2]);
+        add(corner[0], corner[2], corner[3]);
+      } else {
+        add(corner[0], corner[1], corner[3]);
+        add(corner[1], corner[2], corner[3]);
+      }
+      continue;
+    }
+    for (std::size_t k = 1; k + 1 < size; ++k) add(corner[0], corner[k], corner[k + 1]);
+  }
 }
 
 void append_number(std::string& out, double value) {
@@ -83,35 +87,72 @@ void append_number(std::string& out, double value) {
 
 }  // namespace
 
-Mesh read_obj(const std::filesystem::path& path) {
-  const std::string content = detail::read_text_file(path);
-  const std::vector<double> coordinates = scan_obj_vertices(path, content);
+Mesh parse_obj(const std::filesystem::path& path, std::string_view content) {
+  detail::reject_binary(path, content);
+  std::vector<double> coordinates;
+  Polygons polygons;
+  // Positive indices may refer forward: they are checked against the final count afterwards.
+  struct ForwardReference {
+    std::size_t line;
+    long long index;
+  };
+  std::vector<ForwardReference> forward_references;
+  long long vertex_count = 0;
+  std::vector<std::string_view> tokens;
 
-  tinyobj::attrib_t attributes;
-  std::vector<tinyobj::shape_t> shapes;
-  std::string warnings;
-  std::string errors;
-  std::istringstream stream(content);
-  if (!tinyobj::LoadObj(&attributes, &shapes, nullptr, &warnings, &errors, &stream, nullptr, true, false)) {
-    throw InputError(path.string() + ": " + (errors.empty() ? std::string("not a readable OBJ file") : errors));
+  detail::for_each_line(content, [&](std::size_t line, std::string_view text) {
+    detail::split_tokens(text, tokens);
+    if (tokens.empty()) return;
+    const std::string_view keyword = tokens[0];
+    if (keyword == "v") {
+      if (tokens.size() < 4) fail_at(path, line, "vertex needs 3 coordinates, found " + std::to_string(tokens.size() - 1));
+      if (tokens.size() > 8) {
+        fail_at(path, line, "vertex has " + std::to_string(tokens.size() - 1) + " values (at most 7: x y z, then w or r g b [a])");
+      }
+      for (std::size_t k = 1; k < tokens.size(); ++k) {
+        const auto value = detail::parse_double(tokens[k]);
+        if (!value) fail_at(path, line, "vertex coordinate " + quoted(tokens[k]) + " is not a number");
+        if (k <= 3 && !std::isfinite(*value)) fail_at(path, line, "non-finite vertex coordinate " + quoted(tokens[k]));
+        if (k <= 3) coordinates.push_back(*value);
+      }
+      if (++vertex_count > INT_MAX) fail_at(path, line, "more than " + std::to_string(INT_MAX) + " vertices");
+    } else if (keyword == "f") {
+      if (tokens.size() < 4) fail_at(path, line, "face needs at least 3 vertices, found " + std::to_string(tokens.size() - 1));
+      for (std::size_t k = 1; k < tokens.size(); ++k) {
+        const long long index = face_vertex_reference(path, line, tokens[k]);
+        if (index < 0 && -index > vertex_count) {
+          fail_at(path, line, "relative face index " + std::to_string(index) + " reaches before the first vertex (" +
+                                  std::to_string(vertex_count) + " defined so far)");
+        }
+        if (index > INT_MAX) {
+          fail_at(path, line, "face index " + std::to_string(index) + " out of range (at most " + std::to_string(INT_MAX) + " vertices)");
+        }
+        if (index > 0) forward_references.push_back({line, index});
+        polygons.corners.push_back(static_cast<int>(index > 0 ? index - 1 : vertex_count + index));
+      }
+      polygons.start.push_back(polygons.corners.size());
+    }
+  });
+  for (const auto& reference : forward_references) {
+    if (reference.index > vertex_count) {
+      fail_at(path, reference.line, "face index " + std::to_string(reference.index) + " out of range (the file has " +
+                                        std::to_string(vertex_count) + " vertices)");
+    }
+  }
+  if (polygons.count() == 0) {
+    throw InputError(path.string() + (vertex_count == 0 ? ": empty: no vertices and no triangles" : ": no triangles (the file has no faces)"));
   }
 
   Mesh mesh;
-  const auto vertex_count = static_cast<Eigen::Index>(coordinates.size() / 3);
-  mesh.positions = Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>>(coordinates.data(), vertex_count, 3);
-  std::size_t corner_count = 0;
-  for (const auto& shape : shapes) corner_count += shape.mesh.indices.size();
-  mesh.triangles.resize(static_cast<Eigen::Index>(corner_count / 3), 3);
-  Eigen::Index t = 0;
-  for (const auto& shape : shapes) {
-    const auto& corners = shape.mesh.indices;
-    for (std::size_t k = 0; k + 2 < corners.size(); k += 3, ++t) {
-      for (int c = 0; c < 3; ++c) mesh.triangles(t, c) = corners[k + static_cast<std::size_t>(c)].vertex_index;
-    }
-  }
-  if (mesh.triangle_count() == 0) throw InputError(path.string() + ": no triangles");
+  mesh.positions = Eigen::Map<const Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor>>(
+      coordinates.data(), static_cast<Eigen::Index>(vertex_count), 3);
+  triangulate(polygons, mesh.positions, mesh.triangles);
+  // The arrays just built are what every algorithm trusts; check them, not the text.
+  validate_mesh(mesh, path.string());
   return mesh;
 }
+
+Mesh read_obj(const std::filesystem::path& path) { return parse_obj(path, detail::read_text_file(path)); }
 
 void write_obj(const std::filesystem::path& path, const Mesh& mesh) {
   std::string text;

@@ -23,15 +23,15 @@ void fail_at(const std::filesystem::path& path, std::size_t line, const std::str
 }
 
 void reject_binary(const std::filesystem::path& path, std::string_view content) {
-  std::size_t line = 1;
-  for (const char c : content) {
-    const auto byte = static_cast<unsigned char>(c);
-    if (byte == '\n') ++line;
-    if (byte < 0x20 && byte != '\n' && byte != '\r' && byte != '\t' && byte != '\f' && byte != '\v') {
-      fail_at(path, line, "binary data (byte 0x" + std::string(1, "0123456789abcdef"[byte >> 4]) +
-                              std::string(1, "0123456789abcdef"[byte & 15]) + "), not a text file");
+  for_each_raw_line(content, [&](std::size_t line, std::string_view text) {
+    for (const char c : text) {
+      const auto byte = static_cast<unsigned char>(c);
+      if (byte < 0x20 && !is_blank(c)) {
+        fail_at(path, line, "binary data (byte 0x" + std::string(1, "0123456789abcdef"[byte >> 4]) +
+                                std::string(1, "0123456789abcdef"[byte & 15]) + "), not a text file");
+      }
     }
-  }
+  });
 }
 
 std::string quoted(std::string_view token) {

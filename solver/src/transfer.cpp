@@ -135,6 +135,8 @@ DeformationTransfer::DeformationTransfer(Mesh source_rest, Mesh target_rest, Mar
   const auto report = [&](std::string_view stage) {
     if (progress) progress(stage);
   };
+  validate_mesh(source_rest_, "source mesh");
+  validate_mesh(target_rest_, "target mesh");
   if (markers_.source.size() != markers_.target.size()) throw InputError("markers: the source and target lists differ in length");
   if (markers_.size() < kMinimumMarkers) {
     throw InputError(std::to_string(markers_.size()) + " marker pair(s); deformation transfer needs at least " + std::to_string(kMinimumMarkers));

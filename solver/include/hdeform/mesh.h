@@ -1,5 +1,6 @@
 #pragma once
 #include <Eigen/Core>
+#include <string_view>
 
 namespace hdeform {
 
@@ -12,6 +13,15 @@ struct Mesh {
   Eigen::Index vertex_count() const { return positions.rows(); }
   Eigen::Index triangle_count() const { return triangles.rows(); }
 };
+
+// The check at the door of the library, O(n + m): positions n×3 and finite, triangles m×3 with
+// every index in [0, n). Throws InputError "<name>: <element>: <problem>" naming the first bad
+// vertex or triangle. Every public entry point that takes a mesh from outside runs it; the
+// algorithms inside trust its result.
+void validate_mesh(const Mesh& mesh, std::string_view name = "mesh");
+void validate_mesh(const Eigen::MatrixXd& positions, const Eigen::MatrixXi& triangles, std::string_view name = "mesh");
+// Its triangle half, for those who hold triangles and a vertex count (the renderer).
+void validate_triangles(const Eigen::MatrixXi& triangles, Eigen::Index vertex_count, std::string_view name = "mesh");
 
 // Length of the diagonal of the axis-aligned bounding box (0 for no points).
 double bounding_box_diagonal(const Eigen::MatrixXd& positions);
