@@ -10,6 +10,7 @@
 #include <fstream>
 #include <string>
 
+#include <tbb/global_control.h>
 #include <unistd.h>
 
 #include "hdeform/errors.h"
@@ -18,8 +19,9 @@ namespace hdeform::fuzz {
 
 class InputFile {
  public:
-  explicit InputFile(const std::string& extension)
-      : path_(std::filesystem::temp_directory_path() / ("hdeform-fuzz-" + std::to_string(::getpid()) + extension)) {}
+  // The name has the same length in every process: messages quote it, and a length that varied
+  // with the pid would vary the coverage, so that a seeded run would not repeat itself.
+  explicit InputFile(const std::string& extension) : path_(std::filesystem::temp_directory_path() / name(extension)) {}
   ~InputFile() {
     std::error_code ignored;
     std::filesystem::remove(path_, ignored);
@@ -29,10 +31,20 @@ class InputFile {
   const std::filesystem::path& path() const { return path_; }
 
  private:
+  static std::string name(const std::string& extension) {
+    char pid[16];
+    std::snprintf(pid, sizeof pid, "%010d", static_cast<int>(::getpid()));
+    return "hdeform-fuzz-" + std::string(pid) + extension;
+  }
   std::filesystem::path path_;
 };
 
+// One thread: how a parallel loop splits its range depends on timing, and so would the coverage
+// it reports, so that a seeded run would not repeat itself.
+inline void run_on_one_thread() { static const tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1); }
+
 inline const std::filesystem::path& write_input(const std::uint8_t* data, std::size_t size, const std::string& extension) {
+  run_on_one_thread();
   static const InputFile file(extension);
   const auto& path = file.path();
   std::ofstream(path, std::ios::binary | std::ios::trunc).write(reinterpret_cast<const char*>(data), static_cast<std::streamsize>(size));

@@ -191,6 +191,7 @@ std::optional<ReferenceMesh> reference_read(std::string text) {
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  hdeform::fuzz::run_on_one_thread();
   const std::string text(reinterpret_cast<const char*>(data), size);
   std::optional<hdeform::Mesh> mesh;
   hdeform::fuzz::expect_clean_refusal([&] { mesh = hdeform::parse_obj("input.obj", text); });
