@@ -133,7 +133,7 @@ class BenchCommand final : public BatchCommand {
     for (const auto backend : {SolverBackend::Eigen, SolverBackend::Cholmod}) {
       if (!backend_available(backend)) continue;
       progress("backend " + std::string(to_string(backend)));
-      Deformer deformer(mesh, constraints, {backend, default_schedule()});
+      Deformer deformer(mesh, constraints, DeformerOptions::solver(backend));
       Eigen::MatrixXd positions;
       const auto update = drag(deformer, std::span(&transform, 1), positions);
       report["backends"][std::string(to_string(backend))] = {
@@ -161,7 +161,7 @@ class BenchCommand final : public BatchCommand {
       progress("schedule " + name);
       Eigen::MatrixXd positions;
       {
-        Deformer deformer(mesh, constraints, {default_backend(), schedule});
+        Deformer deformer(mesh, constraints, DeformerOptions::solver(default_backend(), schedule));
         nlohmann::json stages;
         report["one_handle_update_ms"][name] = to_json(drag(deformer, std::span(&transform, 1), positions, &stages));
         if (schedule == default_schedule()) report["one_handle_stage_ms"] = stages;
@@ -181,12 +181,14 @@ class BenchCommand final : public BatchCommand {
         report["solve_xyz_ms"][name] = to_json(summarize(samples));
       }
       {
-        Deformer deformer(mesh, two_handles, {default_backend(), schedule});
+        Deformer deformer(mesh, two_handles, DeformerOptions::solver(default_backend(), schedule));
         nlohmann::json stages;
         report["two_handle_update_ms"][name] = to_json(drag(deformer, two_transforms, positions, &stages));
         if (schedule == default_schedule()) report["two_handle_stage_ms"] = stages;
       }
     }
+
+    bench_refinement(mesh, constraints, transform, report, progress);
 
     // The update as the editor runs it: posted to the pipeline's thread, one request at a time.
     {
@@ -207,6 +209,78 @@ class BenchCommand final : public BatchCommand {
   }
 
  private:
+  // The as-rigid-as-possible refinement: one iteration and its stages; then how long the drag
+  // (kRefineDragSteps updates with kRefineDragIterations iterations each, as `edit --steps 10
+  // --refine 5`) and a cold start from the paper's result take to come within 1% of the converged
+  // energy, accelerated and plain.
+  void bench_refinement(const Mesh& mesh, const EditConstraints& constraints, const HandleTransform& transform, nlohmann::json& report,
+                        const Progress& progress) const {
+    constexpr int kRefineDragSteps = 10, kRefineDragIterations = 5, kPlainCap = 3000;
+    progress("refinement iterations");
+    DeformerOptions options;
+    options.prepare_refinement = true;
+    Deformer deformer(mesh, constraints, options);
+    Eigen::MatrixXd positions;
+    std::map<std::string, std::vector<double>> stage_samples;
+    std::vector<double> samples;
+    deformer.deform(std::span(&transform, 1), positions);
+    for (int k = 0; k <= steps_; ++k) {
+      if (deformer.refine(positions, 1) == 0) break;  // converged already
+      if (k == 0) continue;
+      const auto& t = deformer.refinement_timings();
+      samples.push_back(t.total_ms);
+      for (const auto& [name, value] : {std::pair{"rhs", t.rhs_ms}, {"solve", t.solve_ms}, {"acceleration", t.acceleration_ms},
+                                        {"rotations", t.rotations_ms}}) {
+        stage_samples[name].push_back(value);
+      }
+    }
+    report["refine_iteration_ms"] = to_json(summarize(samples));
+    for (const auto& [name, values] : stage_samples) report["refine_stage_ms"][name] = std::round(summarize(values).median * 1000.0) / 1000.0;
+
+    progress("refinement: the converged energy");
+    RefinementOptions tight;
+    tight.tolerance = 1e-10;
+    tight.max_iterations = 5000;
+    deformer.set_refinement_options(tight);
+    deformer.deform(std::span(&transform, 1), positions);
+    deformer.refine(positions, tight.max_iterations);
+    const double converged = deformer.refinement_status().energy;
+    nlohmann::json convergence = {{"converged_energy", converged}, {"unrefined_energy", deformer.refinement_status().unrefined_energy}};
+
+    // Iterations and milliseconds until the energy is within 1% of the converged one.
+    const auto until_within = [&](Deformer& d, int cap) {
+      int iterations = 0;
+      const auto start = Clock::now();
+      while (d.refinement_status().energy > 1.01 * converged && iterations < cap && d.refine(positions, 1) == 1) ++iterations;
+      return nlohmann::json{{"iterations", iterations}, {"ms", since(start)}, {"reached", d.refinement_status().energy <= 1.01 * converged}};
+    };
+    for (const bool accelerate : {true, false}) {
+      progress(std::string("refinement: convergence, ") + (accelerate ? "accelerated" : "plain"));
+      RefinementOptions refinement;
+      refinement.accelerate = accelerate;
+      refinement.tolerance = 1e-12;  // never stop early: within 1% is what is measured
+      DeformerOptions fresh;
+      fresh.refinement = refinement;
+      fresh.prepare_refinement = true;
+      const std::string name = accelerate ? "accelerated" : "plain";
+      {
+        Deformer cold(mesh, constraints, fresh);
+        cold.deform(std::span(&transform, 1), positions);
+        cold.refine(positions, 0);
+        convergence[name]["from_paper"] = until_within(cold, kPlainCap);
+      }
+      Deformer dragged(mesh, constraints, fresh);
+      for (int step = 1; step <= kRefineDragSteps; ++step) {
+        const HandleTransform at = transform.at_fraction(static_cast<double>(step) / kRefineDragSteps);
+        dragged.deform(std::span(&at, 1), positions);
+        dragged.refine(positions, kRefineDragIterations);
+      }
+      convergence[name]["after_drag"] = until_within(dragged, kPlainCap);
+      convergence[name]["after_drag"]["drag_energy"] = dragged.refinement_status().energy;
+    }
+    report["refine_convergence"] = convergence;
+  }
+
   void finish(nlohmann::json& report) const {
     report["peak_rss_mb"] = peak_rss_mb();
     if (!out_path_.empty()) {

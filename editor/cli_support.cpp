@@ -7,6 +7,7 @@
 #include <sys/resource.h>
 
 #include <algorithm>
+#include <charconv>
 #include <cmath>
 #include <filesystem>
 #include <iostream>
@@ -52,6 +53,34 @@ void SolverChoice::add_options(CLI::App& command) {
   command.add_option("--backend", backend, "Factorization backend: eigen or cholmod")->capture_default_str();
   command.add_option("--schedule", schedule, "Column solves: blocked, per-column or thread-groups")->capture_default_str();
   command.add_option("--threads", threads, "Worker threads (default: all cores)");
+}
+
+void RefineChoice::add_options(CLI::App& command) {
+  command.add_option("--refine", iterations,
+                     "As-rigid-as-possible iterations after each step's update: N, or 'auto' to run until converged (0: the paper's "
+                     "method alone)")
+      ->capture_default_str();
+  command.add_option("--refine-tolerance", tolerance, "--refine auto: converged when the energy falls by less than this fraction")
+      ->capture_default_str();
+  command.add_flag("--no-acceleration", plain, "Plain local/global iterations, without Anderson acceleration");
+}
+
+int RefineChoice::parsed_iterations() const {
+  if (until_converged()) return options().max_iterations;
+  int value = 0;
+  const auto [end, error] = std::from_chars(iterations.data(), iterations.data() + iterations.size(), value);
+  if (error != std::errc() || end != iterations.data() + iterations.size() || value < 0) {
+    throw UsageError("--refine takes a number of iterations (0 or more) or 'auto', not '" + iterations + "'");
+  }
+  return value;
+}
+
+RefinementOptions RefineChoice::options() const {
+  if (!(tolerance > 0.0 && tolerance < 1.0)) throw UsageError("--refine-tolerance must lie between 0 and 1");
+  RefinementOptions options;
+  options.tolerance = tolerance;
+  options.accelerate = !plain;
+  return options;
 }
 
 SolverBackend SolverChoice::parsed_backend() const {

@@ -15,6 +15,7 @@
 #include "hdeform/constraints.h"
 #include "hdeform/handle_transform.h"
 #include "hdeform/mesh.h"
+#include "hdeform/refinement.h"
 #include "hdeform/sparse_cholesky.h"
 
 namespace hdeform::cli {
@@ -58,6 +59,19 @@ struct SolverChoice {
   // Limits TBB to --threads for the lifetime of the returned object (none when 0).
   std::unique_ptr<tbb::global_control> apply_threads() const;
   int effective_threads() const;
+};
+
+// --refine N|auto, --refine-tolerance, --no-acceleration: the as-rigid-as-possible refinement.
+struct RefineChoice {
+  std::string iterations = "0";
+  double tolerance = RefinementOptions{}.tolerance;
+  bool plain = false;
+
+  void add_options(CLI::App& command);
+  // Iterations per step: 0 (the paper's method alone), N, or the cap of "auto" (run to convergence).
+  int parsed_iterations() const;
+  bool until_converged() const { return iterations == "auto"; }
+  RefinementOptions options() const;
 };
 
 // Progress lines on stderr, with the time since the command started; silent with --quiet.

@@ -9,6 +9,7 @@
 #include "hdeform/deformer.h"
 #include "hdeform/errors.h"
 #include "hdeform/mesh_io.h"
+#include "hdeform/shape_metrics.h"
 #include "session.h"
 #ifdef HDEFORM_WITH_ENGINE
 #include "render_support.h"
@@ -32,6 +33,7 @@ class EditCommand final : public BatchCommand {
     command->add_option("--steps", steps_, "Simulate a drag: go from the identity to the transform in this many updates")
         ->capture_default_str();
     solver_.add_options(*command);
+    refine_.add_options(*command);
     command->add_flag("--quiet", quiet_, "No progress or warnings on stderr");
 #ifdef HDEFORM_WITH_ENGINE
     command->add_option("--png", png_path_, "Also render the result to this PNG (fixed and handle vertices coloured)");
@@ -61,7 +63,10 @@ class EditCommand final : public BatchCommand {
     if (!png_path_.empty()) refuse_overwriting_inputs(png_path_, inputs);
     const auto threads = solver_.apply_threads();
     const Progress progress(quiet_);
-    DeformerOptions options{solver_.parsed_backend(), solver_.parsed_schedule()};
+    DeformerOptions options = DeformerOptions::solver(solver_.parsed_backend(), solver_.parsed_schedule());
+    const int refine_iterations = refine_.parsed_iterations();
+    options.refinement = refine_.options();
+    options.prepare_refinement = refine_iterations > 0;
 
     LoadedMesh loaded;
     EditConstraints constraints;
@@ -127,18 +132,27 @@ class EditCommand final : public BatchCommand {
     }
     progress.warn(warnings);
 
-    progress("deforming in " + std::to_string(steps_) + (steps_ == 1 ? " step" : " steps"));
+    progress("deforming in " + std::to_string(steps_) + (steps_ == 1 ? " step" : " steps") +
+             (refine_iterations == 0 ? std::string()
+              : refine_.until_converged() ? ", refined until converged"
+                                          : ", " + std::to_string(refine_iterations) + " refinement iterations each"));
     Eigen::MatrixXd positions = deformer.rest().positions;
     std::vector<HandleTransform> step_transforms(transforms.size());
     std::vector<double> step_ms;
+    int refined_iterations = 0;
     for (int step = 1; step <= steps_; ++step) {
       const double fraction = static_cast<double>(step) / steps_;
       for (std::size_t h = 0; h < transforms.size(); ++h) step_transforms[h] = transforms[h].at_fraction(fraction);
       const auto start = std::chrono::steady_clock::now();
       deformer.deform(step_transforms, positions);
+      if (refine_iterations > 0) refined_iterations += deformer.refine(positions, refine_iterations);
       step_ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
     }
     if (!positions.allFinite()) throw SolveError("the deformation produced non-finite positions");
+    if (refine_.until_converged() && !deformer.refinement_status().converged) {
+      progress.warn({"the refinement did not converge in " + std::to_string(refine_iterations) + " iterations (energy " +
+                     std::to_string(deformer.refinement_status().energy) + ")"});
+    }
 
     progress("writing " + out_path_);
     write_obj(out_path_, Mesh{positions, deformer.rest().triangles});
@@ -171,10 +185,21 @@ class EditCommand final : public BatchCommand {
         {"field_ms", timings.field_ms},
         {"steps", steps_},
         {"step_ms", to_json(summarize(step_ms))},
+        {"mean_edge_strain", mean_edge_strain(deformer.rest(), positions)},
         {"peak_rss_mb", peak_rss_mb()},
         {"warnings", warnings},
         {"output", out_path_},
     };
+    if (refine_iterations > 0) {
+      const auto& status = deformer.refinement_status();
+      report["refine"] = {{"iterations", refined_iterations},
+                          {"last_step_iterations", status.iterations},
+                          {"energy", status.energy},
+                          {"unrefined_energy", status.unrefined_energy},
+                          {"converged", status.converged},
+                          {"accelerated", status.accelerated},
+                          {"rejected", status.rejected}};
+    }
     if (!picture.is_null()) report["picture"] = picture;
     print_json_line(report);
     return 0;
@@ -183,6 +208,7 @@ class EditCommand final : public BatchCommand {
  private:
   MeshSource source_;
   SolverChoice solver_;
+  RefineChoice refine_;
   std::string session_path_;
   std::string fixed_path_;
   std::string roi_path_;

@@ -88,7 +88,7 @@ TEST(Reconstruction, ResultsAreIndependentOfTheThreadCount) {
     for (const std::size_t threads : {1u, 2u, 4u}) {
       const tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
       for (const auto schedule : {SolveSchedule::Blocked, SolveSchedule::ThreadGroups}) {
-        Deformer deformer(shape.mesh, several ? two_handles : shape.demo_constraints, {SolverBackend::Eigen, schedule});
+        Deformer deformer(shape.mesh, several ? two_handles : shape.demo_constraints, DeformerOptions::solver(SolverBackend::Eigen, schedule));
         Eigen::MatrixXd positions;
         deformer.deform(std::span(transforms.data(), several ? 2 : 1), positions);
         results.push_back(positions);

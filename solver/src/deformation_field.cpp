@@ -30,6 +30,8 @@ DeformationField blend_field(const Eigen::VectorXd& h, const HandleTransform& ha
   return field;
 }
 
+Eigen::Quaterniond interpolated_rotation(const InterpolatedValue& value) { return unit_or_identity(value.head<4>().transpose()); }
+
 InterpolatedValue interpolation_value(const HandleTransform& handle) {
   const auto q = handle.rotation();
   return (InterpolatedValue() << q.w(), q.x(), q.y(), q.z(), handle.scale).finished();

@@ -6,8 +6,10 @@
 #include <algorithm>
 #include <chrono>
 #include <limits>
+#include <numbers>
 #include <stdexcept>
 
+#include "arap_refinement.h"
 #include "hdeform/deformation_field.h"
 #include "hdeform/errors.h"
 #include "hdeform/harmonic_field.h"
@@ -48,6 +50,9 @@ struct Deformer::UpdateGraph {
 
   tbb::flow::graph graph;
   tbb::flow::broadcast_node<Message> start{graph};
+  // One refinement iteration: assemble ─► solve ─► mix ─► fit ─► write.
+  tbb::flow::broadcast_node<Message> refine_start{graph};
+  Eigen::MatrixXd* refined = nullptr;
   std::vector<std::unique_ptr<Node>> nodes;
 
   // A stage whose duration is added to `*stage_ms` (zeroed before each update).
@@ -56,7 +61,7 @@ struct Deformer::UpdateGraph {
     nodes.push_back(std::make_unique<Node>(graph, [body, stage_ms](const Message&) {
       const auto began = Clock::now();
       body();
-      *stage_ms += milliseconds_since(began);
+      if (stage_ms != nullptr) *stage_ms += milliseconds_since(began);
     }));
     return *nodes.back();
   }
@@ -186,6 +191,26 @@ Deformer::Deformer(Mesh rest, EditConstraints constraints, DeformerOptions optio
   Node& solve = g.add(&t.solve_ms, [this] { graph_->coordinates.solve(system_->factor()); });
   tbb::flow::make_edge(rhs, solve);
   tbb::flow::make_edge(solve, write);
+  edited_.resize(handle_count());
+  if (options_.prepare_refinement) {
+    report("preparing the as-rigid-as-possible refinement");
+    prepare_refinement();
+  }
+}
+
+void Deformer::prepare_refinement() {
+  graph_->graph.wait_for_all();
+  refinement_ = std::make_unique<detail::ArapRefinement>(rest_, weights_, *system_, update_triangles_, options_.refinement);
+  auto& g = *graph_;
+  std::vector<Node*> chain;
+  // Each stage keeps its own time (RefinementTimings); the graph adds none.
+  chain.push_back(&g.add(nullptr, [this] { refinement_->assemble(); }));
+  chain.push_back(&g.add(nullptr, [this] { refinement_->solve(); }));
+  chain.push_back(&g.add(nullptr, [this] { refinement_->mix(); }));
+  chain.push_back(&g.add(nullptr, [this] { refinement_->fit(); }));
+  chain.push_back(&g.add(nullptr, [this] { refinement_->finish(*graph_->refined); }));
+  tbb::flow::make_edge(g.refine_start, *chain.front());
+  for (std::size_t k = 1; k < chain.size(); ++k) tbb::flow::make_edge(*chain[k - 1], *chain[k]);
 }
 
 void Deformer::prepare_update_triangles() {
@@ -247,7 +272,86 @@ void Deformer::deform(std::span<const HandleTransform> transforms, Eigen::Matrix
     graph_->start.try_put(Message());
     graph_->graph.wait_for_all();
   });
+  std::copy(transforms.begin(), transforms.end(), edited_.begin());
+  refinement_pending_ = true;
   last_update_.total_ms = milliseconds_since(start);
+}
+
+void Deformer::begin_refinement(const Eigen::MatrixXd& positions) {
+  auto& refinement = *refinement_;
+  const auto vertices = refinement.rotation_vertices();
+  const auto triangles = refinement.energy_triangles();
+  auto rotations = refinement.field_rotations();
+  auto scales = refinement.triangle_scales();
+  update_arena_.execute([&] {
+    if (handle_count() == 1) {
+      const HandleTransform& handle = edited_[0];
+      refinement.set_turn_axis(std::abs(handle.angle) > std::numbers::pi ? std::optional<Eigen::Vector3d>(handle.axis) : std::nullopt);
+      tbb::parallel_for(tbb::blocked_range<std::size_t>(0, vertices.size(), kRowGrain), [&](const auto& range) {
+        for (std::size_t i = range.begin(); i != range.end(); ++i) rotations[i] = blend_rotation(handle, field_(vertices[i]));
+      });
+      tbb::parallel_for(tbb::blocked_range<std::size_t>(0, triangles.size(), kRowGrain), [&](const auto& range) {
+        for (std::size_t c = range.begin(); c != range.end(); ++c) {
+          const auto t = triangles[c];
+          const double h = (field_(rest_.triangles(t, 0)) + field_(rest_.triangles(t, 1)) + field_(rest_.triangles(t, 2))) / 3.0;
+          scales[c] = blend_scale(handle, h);
+        }
+      });
+    } else {
+      refinement.set_turn_axis(std::nullopt);  // interpolated quaternions turn less than half a turn
+      const auto& components = graph_->components;
+      tbb::parallel_for(tbb::blocked_range<std::size_t>(0, vertices.size(), kRowGrain), [&](const auto& range) {
+        for (std::size_t i = range.begin(); i != range.end(); ++i) {
+          rotations[i] = interpolated_rotation(components.row(vertices[i]));
+        }
+      });
+      tbb::parallel_for(tbb::blocked_range<std::size_t>(0, triangles.size(), kRowGrain), [&](const auto& range) {
+        for (std::size_t c = range.begin(); c != range.end(); ++c) {
+          const auto t = triangles[c];
+          scales[c] = (components(rest_.triangles(t, 0), 4) + components(rest_.triangles(t, 1), 4) + components(rest_.triangles(t, 2), 4)) / 3.0;
+        }
+      });
+    }
+    refinement.begin(positions);
+  });
+}
+
+int Deformer::refine(Eigen::MatrixXd& positions, int max_iterations) {
+  if (positions.rows() != rest_.vertex_count() || positions.cols() != 3) {
+    throw std::invalid_argument("refine: positions must be the " + std::to_string(rest_.vertex_count()) + "×3 result of deform()");
+  }
+  if (!refinement_) prepare_refinement();
+  if (refinement_pending_) {
+    begin_refinement(positions);
+    refinement_pending_ = false;
+  }
+  int iterations = 0;
+  graph_->refined = &positions;
+  while (iterations < max_iterations && !(refinement_->status().iterations > 0 && refinement_->status().converged)) {
+    const auto start = Clock::now();
+    update_arena_.execute([this] {
+      graph_->refine_start.try_put(Message());
+      graph_->graph.wait_for_all();
+    });
+    refinement_->timings().total_ms = milliseconds_since(start);
+    ++iterations;
+  }
+  return iterations;
+}
+
+const RefinementStatus& Deformer::refinement_status() const {
+  static const RefinementStatus none;
+  return refinement_ ? refinement_->status() : none;
+}
+
+const RefinementTimings& Deformer::refinement_timings() const {
+  static const RefinementTimings none;
+  return refinement_ ? refinement_->timings() : none;
+}
+
+void Deformer::set_refinement_options(const RefinementOptions& options) {
+  options_.refinement = options;
+  if (refinement_) refinement_->set_options(options);
 }
 
 }  // namespace hdeform

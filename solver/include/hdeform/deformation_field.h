@@ -34,6 +34,9 @@ inline constexpr int kInterpolatedComponents = 5;
 
 using InterpolatedValue = Eigen::Matrix<double, 1, kInterpolatedComponents>;
 
+// The rotation of interpolated components (q0..q3 normalised; the identity where they vanish).
+Eigen::Quaterniond interpolated_rotation(const InterpolatedValue& value);
+
 // The Dirichlet value of the §7 fields at a handle's vertices: its quaternion, sign-aligned to
 // the identity's hemisphere (w ≥ 0) that the sinks hold, and its scale.
 InterpolatedValue interpolation_value(const HandleTransform& handle);

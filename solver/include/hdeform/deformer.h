@@ -18,13 +18,27 @@
 #include "hdeform/handle_transform.h"
 #include "hdeform/mesh.h"
 #include "hdeform/mesh_check.h"
+#include "hdeform/refinement.h"
 #include "hdeform/sparse_cholesky.h"
 
 namespace hdeform {
+namespace detail {
+class ArapRefinement;
+}
 
 struct DeformerOptions {
   SolverBackend backend = default_backend();
   SolveSchedule schedule = default_schedule();
+  RefinementOptions refinement;
+  // Set up the as-rigid-as-possible refinement with the rest (else at the first refine()).
+  bool prepare_refinement = false;
+
+  static DeformerOptions solver(SolverBackend backend, SolveSchedule schedule = default_schedule()) {
+    DeformerOptions options;
+    options.backend = backend;
+    options.schedule = schedule;
+    return options;
+  }
 };
 
 // Where the last update's time went, milliseconds per stage (stages of one update may overlap:
@@ -77,9 +91,23 @@ class Deformer {
   // Not reentrant. Allocation-free once `positions` has the right size.
   void deform(std::span<const HandleTransform> transforms, Eigen::MatrixXd& positions);
 
+  // As-rigid-as-possible refinement (refinement.h) of the last deform(): runs up to
+  // `max_iterations` local/global iterations, fewer when the energy has converged, writing the free
+  // rows of `positions` (the buffer deform() filled) after each. Successive calls continue; a new
+  // deform() starts a new edit, warm: from the refined rotations of the last, turned by the change
+  // of the paper's field. Returns the iterations run. Allocation-free after the first call.
+  int refine(Eigen::MatrixXd& positions, int max_iterations);
+  // ... one iteration at a time, for a caller that shows each (false once converged).
+  bool refine_once(Eigen::MatrixXd& positions) { return refine(positions, 1) == 1 && !refinement_status().converged; }
+  const RefinementStatus& refinement_status() const;
+  const RefinementTimings& refinement_timings() const;
+  void set_refinement_options(const RefinementOptions& options);
+
  private:
   struct UpdateGraph;
   void prepare_update_triangles();
+  void prepare_refinement();
+  void begin_refinement(const Eigen::MatrixXd& positions);
 
   Mesh rest_;
   EditConstraints constraints_;
@@ -101,6 +129,9 @@ class Deformer {
   // update's parallel stages one thread (8.0 ms instead of 4.8 ms per buddha-206k update).
   tbb::task_arena update_arena_;
   std::unique_ptr<UpdateGraph> graph_;
+  std::unique_ptr<detail::ArapRefinement> refinement_;
+  std::vector<HandleTransform> edited_;  // the transforms of the last deform()
+  bool refinement_pending_ = false;      // deform() ran since the refinement last began an edit
 };
 
 }  // namespace hdeform

@@ -1,0 +1,500 @@
+#include "arap_refinement.h"
+
+#include <Eigen/Cholesky>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <numbers>
+#include <limits>
+
+#include "hdeform/rotation_fit.h"
+
+namespace hdeform::detail {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double milliseconds_since(Clock::time_point start) { return std::chrono::duration<double, std::milli>(Clock::now() - start).count(); }
+
+// Work is cut into chunks of this many items, the same for any number of threads; a sum is the
+// sum of its chunks' partial sums in chunk order.
+constexpr std::size_t kChunk = 2048;
+std::size_t chunk_count(std::size_t items) { return (items + kChunk - 1) / kChunk; }
+
+template <class Body>
+void for_each_chunk(std::size_t items, Body body) {
+  tbb::parallel_for(std::size_t{0}, chunk_count(items), [&](std::size_t chunk) {
+    body(chunk, chunk * kChunk, std::min(items, (chunk + 1) * kChunk));
+  });
+}
+
+// Rotation fits: to convergence for the paper's result (a cold start), and within an iteration a
+// few Newton steps from the last fit, which moves little: each step raises the fit, so the energy
+// still falls, and the rotations converge with the positions.
+// (One step or two per iteration take as many iterations to converge: buddha-206k, cylinder.)
+constexpr double kRotationTolerance = 1e-7;
+constexpr int kFullFitSteps = 16;
+constexpr int kIterationSteps = 1;
+
+Eigen::Vector3d row3(const std::vector<double>& values, std::size_t row) { return {values[3 * row], values[3 * row + 1], values[3 * row + 2]}; }
+
+}  // namespace
+
+ArapRefinement::ArapRefinement(const Mesh& rest, const CotangentWeights& weights, const DirichletSystem& system,
+                               std::span<const int> update_triangles, const RefinementOptions& options)
+    : system_(system) {
+  set_options(options);
+  const auto n = static_cast<std::size_t>(rest.vertex_count());
+  const auto free_count = static_cast<std::size_t>(system.free_count());
+  const auto active = [&](Eigen::Index t) { return weights.kind[static_cast<std::size_t>(t)] != ElementKind::Ignored; };
+
+  // Rotation vertices: the free ones in factor order (compact index = row), then the constrained
+  // corners of update triangles; then the remaining corners of the triangles around them.
+  std::vector<int> compact(n, -1);
+  for (std::size_t row = 0; row < free_count; ++row) {
+    compact[static_cast<std::size_t>(system.vertex_of_row()[row])] = static_cast<int>(row);
+    vertex_.push_back(system.vertex_of_row()[row]);
+  }
+  std::vector<bool> carries_rotation(n, false);
+  for (const int t : update_triangles) {
+    for (int k = 0; k < 3; ++k) carries_rotation[static_cast<std::size_t>(rest.triangles(t, k))] = true;
+  }
+  for (std::size_t v = 0; v < n; ++v) {
+    if (carries_rotation[v] && compact[v] < 0) {
+      compact[v] = static_cast<int>(vertex_.size());
+      vertex_.push_back(static_cast<int>(v));
+    }
+  }
+  rotation_count_ = static_cast<int>(vertex_.size());
+
+  std::vector<std::size_t> around_start(n + 1, 0);  // every vertex's active triangles
+  for (Eigen::Index t = 0; t < rest.triangle_count(); ++t) {
+    if (!active(t)) continue;
+    for (int k = 0; k < 3; ++k) ++around_start[static_cast<std::size_t>(rest.triangles(t, k)) + 1];
+  }
+  for (std::size_t v = 0; v < n; ++v) around_start[v + 1] += around_start[v];
+  std::vector<int> around(around_start.back());
+  {
+    std::vector<std::size_t> fill(around_start.begin(), around_start.end() - 1);
+    for (Eigen::Index t = 0; t < rest.triangle_count(); ++t) {
+      if (!active(t)) continue;
+      for (int k = 0; k < 3; ++k) around[fill[static_cast<std::size_t>(rest.triangles(t, k))]++] = static_cast<int>(t);
+    }
+  }
+
+  // Energy triangles in the order the rotation vertices first reach them.
+  std::vector<int> compact_triangle(static_cast<std::size_t>(rest.triangle_count()), -1);
+  for (int i = 0; i < rotation_count_; ++i) {
+    const auto v = static_cast<std::size_t>(vertex_[static_cast<std::size_t>(i)]);
+    for (std::size_t a = around_start[v]; a < around_start[v + 1]; ++a) {
+      const int t = around[a];
+      if (compact_triangle[static_cast<std::size_t>(t)] >= 0) continue;
+      compact_triangle[static_cast<std::size_t>(t)] = static_cast<int>(triangle_.size());
+      triangle_.push_back(t);
+      for (int k = 0; k < 3; ++k) {
+        const auto corner = static_cast<std::size_t>(rest.triangles(t, k));
+        if (compact[corner] < 0) {
+          compact[corner] = static_cast<int>(vertex_.size());
+          vertex_.push_back(static_cast<int>(corner));
+        }
+      }
+    }
+  }
+  const std::size_t triangles = triangle_.size();
+  triangle_corners_.resize(triangles);
+  triangle_weights_.resize(triangles);
+  corner_gradient_.resize(triangles);
+  rest_edge_energy_.resize(triangles);
+  corner_multiplicity_.resize(triangles);
+  double rest_scale = 0.0;
+  for (std::size_t c = 0; c < triangles; ++c) {
+    const int t = triangle_[c];
+    std::array<Eigen::Vector3d, 3> p;
+    for (int k = 0; k < 3; ++k) {
+      const int v = rest.triangles(t, k);
+      triangle_corners_[c][static_cast<std::size_t>(k)] = compact[static_cast<std::size_t>(v)];
+      p[static_cast<std::size_t>(k)] = rest.positions.row(v).transpose();
+    }
+    double energy = 0.0, multiplicity = 0.0;
+    for (int k = 0; k < 3; ++k) {
+      const auto next = static_cast<std::size_t>((k + 1) % 3), previous = static_cast<std::size_t>((k + 2) % 3);
+      const auto here = static_cast<std::size_t>(k);
+      triangle_weights_[c](k) = weights.half_cotangent(t, k);
+      // As in the Poisson assembly: corner k's edges are opposite corners k+2 and k+1.
+      corner_gradient_[c][here] = weights.half_cotangent(t, static_cast<Eigen::Index>(previous)) * (p[here] - p[next]) +
+                                  weights.half_cotangent(t, static_cast<Eigen::Index>(next)) * (p[here] - p[previous]);
+      energy += weights.half_cotangent(t, k) * (p[next] - p[previous]).squaredNorm();
+      if (triangle_corners_[c][here] < rotation_count_) multiplicity += 1.0;
+    }
+    rest_edge_energy_[c] = energy;
+    corner_multiplicity_[c] = multiplicity;
+    rest_scale += multiplicity * std::abs(energy);
+  }
+  energy_floor_ = 1e-14 * rest_scale;
+  scales_.assign(triangles, std::numeric_limits<double>::quiet_NaN());  // differs from any scale: built at the first edit
+  new_scales_.assign(triangles, 1.0);
+
+  // Pairs of each rotation vertex: every corner of its triangles, itself included, ascending.
+  local_start_.assign(static_cast<std::size_t>(rotation_count_) + 1, 0);
+  incidence_start_.assign(static_cast<std::size_t>(rotation_count_) + 1, 0);
+  std::vector<int> neighbours;
+  for (int i = 0; i < rotation_count_; ++i) {
+    const auto v = static_cast<std::size_t>(vertex_[static_cast<std::size_t>(i)]);
+    neighbours.clear();
+    for (std::size_t a = around_start[v]; a < around_start[v + 1]; ++a) {
+      for (const int corner : triangle_corners_[static_cast<std::size_t>(compact_triangle[static_cast<std::size_t>(around[a])])]) {
+        neighbours.push_back(corner);
+      }
+    }
+    std::sort(neighbours.begin(), neighbours.end());
+    neighbours.erase(std::unique(neighbours.begin(), neighbours.end()), neighbours.end());
+    const std::size_t first = local_vertex_.size();
+    local_vertex_.insert(local_vertex_.end(), neighbours.begin(), neighbours.end());
+    local_start_[static_cast<std::size_t>(i) + 1] = local_vertex_.size();
+    for (std::size_t a = around_start[v]; a < around_start[v + 1]; ++a) {
+      Incidence incidence{compact_triangle[static_cast<std::size_t>(around[a])], {}, {}};
+      const auto& corners = triangle_corners_[static_cast<std::size_t>(incidence.triangle)];
+      for (int k = 0; k < 3; ++k) {
+        const auto at = std::lower_bound(neighbours.begin(), neighbours.end(), corners[static_cast<std::size_t>(k)]);
+        incidence.slot[static_cast<std::size_t>(k)] = static_cast<int>(first + static_cast<std::size_t>(at - neighbours.begin()));
+        if (corners[static_cast<std::size_t>(k)] == i) incidence.corner = k;
+      }
+      incidence_.push_back(incidence);
+    }
+    incidence_start_[static_cast<std::size_t>(i) + 1] = incidence_.size();
+  }
+  // A free vertex's triangles all have a free corner (itself), so all its neighbours carry
+  // rotations and its global pairs are its local ones: the first local_start_[free_count] pairs.
+  local_coefficient_.assign(local_vertex_.size(), Eigen::Vector3d::Zero());
+  global_coefficient_.assign(local_start_[free_count], Eigen::Vector3d::Zero());
+
+  for (auto& rotations : rotation_) rotations.assign(static_cast<std::size_t>(rotation_count_), Eigen::Matrix3d::Identity());
+  paper_rotation_.assign(static_cast<std::size_t>(rotation_count_), Eigen::Matrix3d::Identity());
+  paper_.assign(3 * free_count, 0.0);
+  field_.assign(static_cast<std::size_t>(rotation_count_), Eigen::Quaterniond::Identity());
+  new_field_.assign(static_cast<std::size_t>(rotation_count_), Eigen::Quaterniond::Identity());
+  positions_.assign(3 * vertex_.size(), 0.0);
+  constant_.assign(3 * free_count, 0.0);
+  rhs_.assign(3 * free_count, 0.0);
+  for (auto& column : delta_g_) column.assign(3 * free_count, 0.0);
+  for (auto& column : delta_f_) column.assign(3 * free_count, 0.0);
+  previous_g_.assign(3 * free_count, 0.0);
+  previous_f_.assign(3 * free_count, 0.0);
+  const std::size_t most_chunks = std::max({chunk_count(3 * free_count), chunk_count(vertex_.size()), chunk_count(triangles), std::size_t{1}});
+  partial_.assign(most_chunks * 2 * kMaxRefinementHistory, 0.0);  // mix() needs two sums per column and chunk
+}
+
+void ArapRefinement::set_options(const RefinementOptions& options) {
+  options_ = options;
+  options_.history = std::clamp(options_.history, 1, kMaxRefinementHistory);
+  stored_ = 0;  // a changed window starts afresh
+  oldest_ = 0;
+}
+
+void ArapRefinement::rebuild_coefficients() {
+  const auto free_count = static_cast<int>(system_.free_count());
+  tbb::parallel_for(tbb::blocked_range<int>(0, rotation_count_, 512), [&](const tbb::blocked_range<int>& range) {
+    for (int i = range.begin(); i != range.end(); ++i) {
+      const auto index = static_cast<std::size_t>(i);
+      for (std::size_t p = local_start_[index]; p < local_start_[index + 1]; ++p) local_coefficient_[p].setZero();
+      if (i < free_count) {
+        for (std::size_t p = local_start_[index]; p < local_start_[index + 1]; ++p) global_coefficient_[p].setZero();
+      }
+      for (std::size_t a = incidence_start_[index]; a < incidence_start_[index + 1]; ++a) {
+        const Incidence& incidence = incidence_[a];
+        const auto t = static_cast<std::size_t>(incidence.triangle);
+        const double s = scales_[t];
+        const auto& gradient = corner_gradient_[t];
+        for (std::size_t k = 0; k < 3; ++k) {
+          const auto slot = static_cast<std::size_t>(incidence.slot[k]);
+          local_coefficient_[slot] += s * gradient[k];
+          if (i < free_count) global_coefficient_[slot] += (s / 3.0) * gradient[static_cast<std::size_t>(incidence.corner)];
+        }
+      }
+    }
+  });
+}
+
+void ArapRefinement::begin(const Eigen::MatrixXd& positions) {
+  const auto free_count = static_cast<std::size_t>(system_.free_count());
+  auto& rotations = rotation_[static_cast<std::size_t>(current_)];
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, static_cast<std::size_t>(rotation_count_), 2048), [&](const auto& range) {
+    for (std::size_t i = range.begin(); i != range.end(); ++i) {
+      // The many small turns of the fits leave rounding in the matrices: a fresh start each edit.
+      if (new_field_[i].coeffs() == field_[i].coeffs()) {
+        rotations[i] = orthonormalized(rotations[i]);
+        continue;
+      }
+      rotations[i] = orthonormalized((new_field_[i] * field_[i].conjugate()).toRotationMatrix() * rotations[i]);
+      field_[i] = new_field_[i];
+    }
+  });
+  if (!std::equal(new_scales_.begin(), new_scales_.end(), scales_.begin())) {
+    scales_ = new_scales_;
+    rebuild_coefficients();
+  }
+  for (std::size_t c = free_count; c < vertex_.size(); ++c) {
+    for (int k = 0; k < 3; ++k) positions_[3 * c + static_cast<std::size_t>(k)] = positions(vertex_[c], k);
+  }
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, free_count, 2048), [&](const auto& range) {
+    for (std::size_t row = range.begin(); row != range.end(); ++row) {
+      Eigen::Vector3d b = Eigen::Vector3d::Zero();
+      for (const auto& entry : system_.coupling(static_cast<int>(row))) b.noalias() -= entry.weight * positions.row(entry.vertex).transpose();
+      for (int k = 0; k < 3; ++k) constant_[3 * row + static_cast<std::size_t>(k)] = b(k);
+    }
+  });
+
+  // The paper's result with rotations fitted to it: the start of a first edit, and the
+  // fallback of a later one whose warm start does worse (a reset to the rest shape, say).
+  for (std::size_t row = 0; row < free_count; ++row) {
+    for (int k = 0; k < 3; ++k) paper_[3 * row + static_cast<std::size_t>(k)] = positions(vertex_[row], k);
+  }
+  std::copy(paper_.begin(), paper_.end(), positions_.begin());
+  status_ = RefinementStatus{};
+  energy_ = fit_rotations(rotation_[static_cast<std::size_t>(current_)], paper_rotation_, kFullFitSteps);
+  status_.unrefined_energy = unlimited_energy_;  // the plain ARAP energy of the paper's result
+  status_.energy = energy_;
+  consistent_ = !warm_;
+  if (!warm_) std::swap(rotation_[static_cast<std::size_t>(current_)], paper_rotation_);
+  warm_ = true;
+  stored_ = 0;
+  oldest_ = 0;
+  has_previous_ = false;
+}
+
+void ArapRefinement::assemble() {
+  const auto start = Clock::now();
+  const auto& matrices = rotation_[static_cast<std::size_t>(current_)];
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, static_cast<std::size_t>(system_.free_count()), 1024), [&](const auto& range) {
+    for (std::size_t row = range.begin(); row != range.end(); ++row) {
+      Eigen::Vector3d b = row3(constant_, row);
+      for (std::size_t p = local_start_[row]; p < local_start_[row + 1]; ++p) {
+        b.noalias() += matrices[static_cast<std::size_t>(local_vertex_[p])] * global_coefficient_[p];
+      }
+      for (int k = 0; k < 3; ++k) rhs_[3 * row + static_cast<std::size_t>(k)] = b(k);
+    }
+  });
+  timings_.rhs_ms = milliseconds_since(start);
+}
+
+void ArapRefinement::solve() {
+  const auto start = Clock::now();
+  if (!rhs_.empty()) system_.factor().solve_block(rhs_.data(), 3, 3);
+  timings_.solve_ms = milliseconds_since(start);
+}
+
+void ArapRefinement::mix() {
+  const auto start = Clock::now();
+  const std::size_t size = rhs_.size();
+  double* x = positions_.data();  // the free rows come first: the current state
+  const double* g = rhs_.data();
+  mixed_ = false;
+  if (!consistent_) {
+    // A warm start has rotations but no positions they were fitted to: no residual yet.
+    std::copy(rhs_.begin(), rhs_.end(), positions_.begin());
+    has_previous_ = false;
+    timings_.acceleration_ms = milliseconds_since(start);
+    return;
+  }
+  const int history = options_.history;
+  int slot = -1;
+  if (has_previous_) {
+    if (stored_ < history) {
+      slot = (oldest_ + stored_) % history;
+      ++stored_;
+    } else {
+      slot = oldest_;
+      oldest_ = (oldest_ + 1) % history;
+    }
+  }
+  // One pass: f = g − x; the newest differences; then g and f become the previous ones; and, to
+  // accelerate, the newest column of the Gram matrix ΔFᵀΔF and ΔFᵀ f, as fixed-order sums of chunk
+  // sums.
+  const bool accelerate = options_.accelerate && stored_ > 0;
+  const int stride = 2 * history;
+  const int held = stored_;
+  for_each_chunk(size, [&](std::size_t chunk, std::size_t begin, std::size_t end) {
+    double gram[kMaxRefinementHistory] = {}, along[kMaxRefinementHistory] = {};
+    double* newest_g = slot >= 0 ? delta_g_[static_cast<std::size_t>(slot)].data() : nullptr;
+    double* newest_f = slot >= 0 ? delta_f_[static_cast<std::size_t>(slot)].data() : nullptr;
+    for (std::size_t k = begin; k < end; ++k) {
+      const double f = g[k] - x[k];
+      if (slot >= 0) {
+        newest_g[k] = g[k] - previous_g_[k];
+        newest_f[k] = f - previous_f_[k];
+      }
+      previous_g_[k] = g[k];
+      previous_f_[k] = f;
+      if (accelerate) {
+        for (int j = 0; j < held; ++j) {
+          const double column = delta_f_[static_cast<std::size_t>(j)][k];
+          gram[j] += newest_f[k] * column;
+          along[j] += column * f;
+        }
+      }
+    }
+    double* sums = partial_.data() + chunk * static_cast<std::size_t>(stride);
+    for (int j = 0; j < held; ++j) {
+      sums[j] = gram[j];
+      sums[history + j] = along[j];
+    }
+  });
+  has_previous_ = true;
+  if (!accelerate) {
+    std::copy(rhs_.begin(), rhs_.end(), positions_.begin());
+    timings_.acceleration_ms = milliseconds_since(start);
+    return;
+  }
+  const std::size_t chunks = chunk_count(size);
+  Eigen::Matrix<double, kMaxRefinementHistory, 1> projection = Eigen::Matrix<double, kMaxRefinementHistory, 1>::Zero();
+  for (int j = 0; j < stored_; ++j) {
+    double gram = 0.0, along = 0.0;
+    for (std::size_t chunk = 0; chunk < chunks; ++chunk) {
+      gram += partial_[chunk * static_cast<std::size_t>(stride) + static_cast<std::size_t>(j)];
+      along += partial_[chunk * static_cast<std::size_t>(stride) + static_cast<std::size_t>(history + j)];
+    }
+    gram_(slot, j) = gram_(j, slot) = gram;
+    projection(j) = along;
+  }
+  // The columns held are the slots 0..stored_-1 (the ring fills from 0, then wraps); the unused
+  // rest of the fixed-size system is the identity, so their coefficients come out zero.
+  const int m = stored_;
+  using Small = Eigen::Matrix<double, kMaxRefinementHistory, kMaxRefinementHistory>;
+  Small normal = Small::Identity();
+  normal.topLeftCorner(m, m) = gram_.topLeftCorner(m, m);
+  // A relative ridge keeps nearly dependent differences from producing huge coefficients.
+  double largest = 0.0;
+  for (int j = 0; j < m; ++j) largest = std::max(largest, normal(j, j));
+  for (int j = 0; j < m; ++j) normal(j, j) += 1e-10 * largest + std::numeric_limits<double>::min();
+  const Eigen::LDLT<Small> ldlt(normal);
+  const Eigen::Matrix<double, kMaxRefinementHistory, 1> theta = ldlt.solve(projection);
+  if (ldlt.info() != Eigen::Success || !theta.allFinite()) {
+    stored_ = 0;
+    oldest_ = 0;
+    std::copy(rhs_.begin(), rhs_.end(), positions_.begin());
+    timings_.acceleration_ms = milliseconds_since(start);
+    return;
+  }
+  for_each_chunk(size, [&](std::size_t, std::size_t begin, std::size_t end) {
+    for (std::size_t k = begin; k < end; ++k) {
+      double value = g[k];
+      for (int j = 0; j < m; ++j) value -= theta(j) * delta_g_[static_cast<std::size_t>(j)][k];
+      x[k] = value;
+    }
+  });
+  mixed_ = true;
+  timings_.acceleration_ms = milliseconds_since(start);
+}
+
+double ArapRefinement::triangle_energy() const {
+  double* sums = const_cast<double*>(partial_.data());
+  for_each_chunk(triangle_.size(), [&](std::size_t chunk, std::size_t begin, std::size_t end) {
+    double sum = 0.0;
+    for (std::size_t c = begin; c < end; ++c) {
+      const auto& corners = triangle_corners_[c];
+      const Eigen::Vector3d p0 = row3(positions_, static_cast<std::size_t>(corners[0]));
+      const Eigen::Vector3d p1 = row3(positions_, static_cast<std::size_t>(corners[1]));
+      const Eigen::Vector3d p2 = row3(positions_, static_cast<std::size_t>(corners[2]));
+      const Eigen::Vector3d& w = triangle_weights_[c];
+      const double deformed = w(0) * (p1 - p2).squaredNorm() + w(1) * (p2 - p0).squaredNorm() + w(2) * (p0 - p1).squaredNorm();
+      sum += corner_multiplicity_[c] * (deformed + scales_[c] * scales_[c] * rest_edge_energy_[c]);
+    }
+    sums[chunk] = sum;
+  });
+  double total = 0.0;
+  for (std::size_t chunk = 0; chunk < chunk_count(triangle_.size()); ++chunk) total += partial_[chunk];
+  return total;
+}
+
+bool ArapRefinement::keep_turns(std::size_t i, const Eigen::Matrix3d& a, const Eigen::Matrix3d& start, RotationFit& fit) const {
+  // The fit's rotation relative to the field's, as a swing times a twist about the handle's
+  // axis; a twist beyond the limit is clamped to it, the swing kept.
+  const Eigen::Vector3d& axis = *turn_axis_;
+  const Eigen::Quaterniond field = field_[i];
+  Eigen::Quaterniond deviation = field.conjugate() * Eigen::Quaterniond(fit.rotation);
+  if (deviation.w() < 0.0) deviation.coeffs() = -deviation.coeffs();
+  const double twist = 2.0 * std::atan2(deviation.vec().dot(axis), deviation.w());
+  if (std::abs(twist) <= kTurnLimit) return false;
+  const Eigen::Quaterniond swing = deviation * Eigen::Quaterniond(Eigen::AngleAxisd(-twist, axis));
+  const Eigen::Quaterniond clamped = field * swing * Eigen::Quaterniond(Eigen::AngleAxisd(std::copysign(kTurnLimit, twist), axis));
+  const Eigen::Matrix3d rotation = clamped.normalized().toRotationMatrix();
+  const double value = (rotation.array() * a.array()).sum();
+  const double kept = (start.array() * a.array()).sum();
+  // Either is within the limit (every state is); the better one keeps the energy falling.
+  fit.rotation = value >= kept ? rotation : start;
+  fit.objective = std::max(value, kept);
+  return true;
+}
+
+double ArapRefinement::fit_rotations(const std::vector<Eigen::Matrix3d>& start_rotations, std::vector<Eigen::Matrix3d>& rotations, int steps) {
+  const std::size_t count = static_cast<std::size_t>(rotation_count_);
+  const std::size_t chunks = chunk_count(count);
+  for_each_chunk(count, [&](std::size_t chunk, std::size_t begin, std::size_t end) {
+    double sum = 0.0, unlimited = 0.0;
+    for (std::size_t i = begin; i < end; ++i) {
+      Eigen::Matrix3d a = Eigen::Matrix3d::Zero();
+      for (std::size_t p = local_start_[i]; p < local_start_[i + 1]; ++p) {
+        a.noalias() += row3(positions_, static_cast<std::size_t>(local_vertex_[p])) * local_coefficient_[p].transpose();
+      }
+      RotationFit fit = fit_rotation(a, start_rotations[i], kRotationTolerance, steps);
+      unlimited += fit.objective;
+      if (turn_axis_) keep_turns(i, a, start_rotations[i], fit);
+      rotations[i] = fit.rotation;
+      sum += fit.objective;
+    }
+    partial_[chunk] = sum;
+    partial_[chunks + chunk] = unlimited;
+  });
+  double fitted = 0.0, fitted_unlimited = 0.0;
+  for (std::size_t chunk = 0; chunk < chunks; ++chunk) {
+    fitted += partial_[chunk];
+    fitted_unlimited += partial_[chunks + chunk];
+  }
+  const double triangles = triangle_energy();
+  unlimited_energy_ = triangles - 2.0 * fitted_unlimited;
+  return triangles - 2.0 * fitted;
+}
+
+void ArapRefinement::fit() {
+  const auto start = Clock::now();
+  const auto from = static_cast<std::size_t>(current_), to = static_cast<std::size_t>(1 - current_);
+  const auto refit = [&] { return fit_rotations(rotation_[from], rotation_[to], kIterationSteps); };
+  double energy = refit();
+  if (!consistent_) {
+    if (energy > energy_) {
+      // The warm start did worse than the paper's result (which energy_ holds): start from that.
+      std::copy(paper_.begin(), paper_.end(), positions_.begin());
+      std::swap(rotation_[to], paper_rotation_);
+      energy = energy_;
+      status_.started_from_paper = true;
+    }
+    consistent_ = true;
+  } else if (mixed_ && energy > energy_) {
+    // The accelerated step would raise the energy: take the plain one, and start the history anew.
+    std::copy(rhs_.begin(), rhs_.end(), positions_.begin());
+    energy = refit();
+    stored_ = 0;
+    oldest_ = 0;
+    ++status_.rejected;
+  } else if (mixed_) {
+    ++status_.accelerated;
+  }
+  current_ = 1 - current_;
+  status_.converged = energy <= energy_floor_ || energy_ - energy <= options_.tolerance * std::abs(energy_);
+  energy_ = energy;
+  timings_.rotations_ms = milliseconds_since(start);
+}
+
+void ArapRefinement::finish(Eigen::MatrixXd& positions) {
+  const auto free_count = static_cast<std::size_t>(system_.free_count());
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, free_count, 4096), [&](const auto& range) {
+    for (std::size_t row = range.begin(); row != range.end(); ++row) {
+      for (int k = 0; k < 3; ++k) positions(vertex_[row], k) = positions_[3 * row + static_cast<std::size_t>(k)];
+    }
+  });
+  ++status_.iterations;
+  status_.energy = energy_;
+}
+
+}  // namespace hdeform::detail
