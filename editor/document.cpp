@@ -32,12 +32,9 @@ Document::Document(Session session, Mesh base, DeformerOptions options, Publish 
       options_(options), publish_(std::move(publish)) {
   check_session_against_mesh(session, base_.vertex_count(), SessionSource{"session", {}});
   auto rest = std::make_shared<Mesh>(base_);
-  for (const auto& stage : applied_) {
-    Deformer deformer(*rest, stage.constraints(), options_);
-    Eigen::MatrixXd positions;
-    deformer.deform(stage.transforms(), positions);
-    rest->positions = std::move(positions);
-  }
+  Session applied_only = session;
+  applied_only.current = {};
+  rest->positions = replay_session(applied_only, base_, options_);
   rest_ = std::move(rest);
   load_stage(session.current);
   active_handle_ = handles_.empty() ? 0 : std::clamp(session.active_handle, 0, static_cast<int>(handles_.size()) - 1);
@@ -60,6 +57,7 @@ EditStage Document::current_stage() const {
   for (std::size_t h = 0; h < handles_.size(); ++h) {
     if (!handle_vertices[h].empty()) stage.handles.push_back({std::move(handle_vertices[h]), handles_[h].transform});
   }
+  stage.refine = refine_;
   return stage;
 }
 
@@ -89,6 +87,7 @@ void Document::load_stage(const EditStage& stage) {
     handles_.push_back({stage.handles[h].transform});
     handle_sizes_.push_back(stage.handles[h].vertices.size());
   }
+  set_refine(stage.refine);
   active_handle_ = std::min(active_handle_, std::max(0, static_cast<int>(handles_.size()) - 1));
 }
 
@@ -305,7 +304,8 @@ void Document::start_build() {
   build_->constraints = current_stage().constraints();
   build_->rest = rest_;
   Build* build = build_.get();
-  const DeformerOptions options = options_;
+  DeformerOptions options = options_;
+  options.prepare_refinement = refine_;  // set up with the rest, off the frame loop
   build->thread = std::thread([build, options] {
     try {
       build->deformer = std::make_unique<Deformer>(*build->rest, build->constraints, options, [build](std::string_view stage) {
@@ -346,10 +346,16 @@ void Document::install_build() {
   request_base_ = last_request_;
   const std::uint64_t base = request_base_;
   pipeline_ = std::make_unique<UpdatePipeline>(*deformer_, [this, base](const UpdatePipeline::Result& result) {
-    last_update_ms_ = result.update_ms;
+    if (result.refinement.iterations == 0) last_update_ms_ = result.update_ms;
+    {
+      std::lock_guard lock(refinement_mutex_);
+      refinement_ = result.refinement;
+      refinement_ms_ = result.refinement.iterations > 0 ? result.update_ms : 0.0;
+    }
     if (publish_) publish_(result.positions, base + result.request);
     last_published_ = base + result.request;
   });
+  pipeline_->set_refinement(refine_);
   request_update();
 }
 
@@ -389,10 +395,23 @@ Eigen::MatrixXd Document::result() {
   const EditStage stage = current_stage();
   if (stage.handles.empty()) return rest_->positions;
   if (!deformer_) throw SolveError(failure_.empty() ? "the deformation could not be set up" : failure_);
+  // The pipeline pauses its refinement (what it shows came from a warm start) and the stage's
+  // result is computed as `edit --session` does; the refinement then resumes from there.
+  pipeline_->set_refinement(false);
   pipeline_->wait_idle();
-  Eigen::MatrixXd positions;
-  deformer_->deform(stage.transforms(), positions);
+  Eigen::MatrixXd positions = stage_result(*deformer_, stage);
+  pipeline_->set_refinement(refine_);
   return positions;
+}
+
+void Document::set_refine(bool on) {
+  refine_ = on;
+  if (pipeline_) pipeline_->set_refinement(on);
+}
+
+Document::RefinementView Document::refinement() const {
+  std::lock_guard lock(refinement_mutex_);
+  return {refinement_, refinement_ms_};
 }
 
 }  // namespace hdeform::cli

@@ -99,6 +99,18 @@ class Document {
   const DeformerOptions& options() const { return options_; }
   void set_options(const DeformerOptions& options);
 
+  // As-rigid-as-possible refinement of the current stage (on for new sessions in the editor):
+  // part of the state, so undoable and in the session. The pipeline refines after each update.
+  bool refine() const { return refine_; }
+  void set_refine(bool on);
+  // The refinement of the latest publication: its iterations (0: the paper's update alone),
+  // energies and whether it converged, and the last iteration's time.
+  struct RefinementView {
+    RefinementStatus status;
+    double iteration_ms = 0.0;
+  };
+  RefinementView refinement() const;
+
   // Posts the current poses to the pipeline (newest wins); returns the request number (0 when
   // nothing is solved yet).
   std::uint64_t request_update();
@@ -150,6 +162,10 @@ class Document {
   std::unique_ptr<Build> build_;
   std::string failure_;
   std::atomic<double> last_update_ms_{0.0};
+  bool refine_ = false;
+  mutable std::mutex refinement_mutex_;
+  RefinementStatus refinement_;
+  double refinement_ms_ = 0.0;
   std::atomic<std::uint64_t> last_published_{0};
   std::uint64_t request_base_ = 0;  // requests of earlier pipelines, so that numbers keep growing
   std::uint64_t last_request_ = 0;

@@ -48,6 +48,7 @@ class EditCommand final : public BatchCommand {
           !transform_paths_.empty()) {
         throw UsageError("--session replaces --mesh, --shape, --fixed, --roi, --handle and --transform");
       }
+      if (refine_.iterations != "0") throw UsageError("--session carries its own refinement setting (each stage's \"refine\"); leave out --refine");
     } else {
       source_.require();
     }
@@ -64,9 +65,10 @@ class EditCommand final : public BatchCommand {
     const auto threads = solver_.apply_threads();
     const Progress progress(quiet_);
     DeformerOptions options = DeformerOptions::solver(solver_.parsed_backend(), solver_.parsed_schedule());
-    const int refine_iterations = refine_.parsed_iterations();
+    int refine_iterations = refine_.parsed_iterations();
     options.refinement = refine_.options();
     options.prepare_refinement = refine_iterations > 0;
+    bool session_refines = false;  // the session's current stage: refined as the editor saves it
 
     LoadedMesh loaded;
     EditConstraints constraints;
@@ -88,6 +90,8 @@ class EditCommand final : public BatchCommand {
       }
       constraints = session.current.constraints();
       transforms = session.current.transforms();
+      session_refines = session.current.refine;
+      options.prepare_refinement = session_refines;
       if (transforms.empty()) {
         // Nothing is being edited: the result is the rest shape after the applied stages.
         write_obj(out_path_, loaded.mesh);
@@ -147,6 +151,17 @@ class EditCommand final : public BatchCommand {
       deformer.deform(step_transforms, positions);
       if (refine_iterations > 0) refined_iterations += deformer.refine(positions, refine_iterations);
       step_ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
+    }
+    if (session_refines) {
+      progress("refining until converged, as the editor saves it");
+      EditStage stage;
+      stage.refine = true;
+      for (std::size_t h = 0; h < transforms.size(); ++h) stage.handles.push_back({deformer.constraints().handles[h], transforms[h]});
+      const auto start = std::chrono::steady_clock::now();
+      positions = stage_result(deformer, stage);
+      step_ms.back() += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+      refine_iterations = deformer.refinement_status().iterations;
+      refined_iterations = refine_iterations;
     }
     if (!positions.allFinite()) throw SolveError("the deformation produced non-finite positions");
     if (refine_.until_converged() && !deformer.refinement_status().converged) {

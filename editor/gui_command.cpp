@@ -27,6 +27,8 @@ class GuiCommand final : public BatchCommand {
         ->check(CLI::IsMember({"auto", "free", "latch"}))
         ->capture_default_str();
     command->add_flag("--validation", options_.validation, "Enable the Khronos validation layer");
+    command->add_flag("!--no-refine", options_.refine,
+                      "A new session starts with the as-rigid-as-possible refinement off (the paper's method alone; a panel toggle)");
     command->add_option("--recovery-file", options_.recovery_file, "Crash-recovery file (default: $HDEFORM_RECOVERY_FILE or ~/.local/state/hdeform)");
     command->add_option("--restore", options_.restore, "After a crash: ask, yes or no")->capture_default_str();
     command->add_option("--screenshot-dir", options_.screenshot_dir, "Where F12 writes screenshots")->capture_default_str();

@@ -44,7 +44,7 @@ json transform_json(const HandleTransform& transform) {
 json stage_json(const EditStage& stage) {
   json handles = json::array();
   for (const auto& handle : stage.handles) handles.push_back({{"vertices", handle.vertices}, {"transform", transform_json(handle.transform)}});
-  return {{"region_of_interest", stage.region_of_interest}, {"fixed", stage.fixed}, {"handles", handles}};
+  return {{"region_of_interest", stage.region_of_interest}, {"fixed", stage.fixed}, {"handles", handles}, {"refine", stage.refine}};
 }
 
 // Reading with errors that name the line: every accessor takes the value's JSON pointer.
@@ -133,6 +133,9 @@ class Reader {
       handle.transform = transform(member(handles[h], at, "transform"), at + "/transform");
       stage.handles.push_back(std::move(handle));
     }
+    const auto& refine = member(value, pointer, "refine", false);  // absent in sessions written before refinement
+    if (!refine.is_null() && !refine.is_boolean()) fail(pointer + "/refine", "expected true or false");
+    stage.refine = refine.is_boolean() && refine.get<bool>();
     return stage;
   }
 
@@ -157,7 +160,10 @@ std::vector<HandleTransform> EditStage::transforms() const {
 }
 
 bool EditStage::operator==(const EditStage& other) const {
-  if (region_of_interest != other.region_of_interest || fixed != other.fixed || handles.size() != other.handles.size()) return false;
+  if (region_of_interest != other.region_of_interest || fixed != other.fixed || handles.size() != other.handles.size() ||
+      refine != other.refine) {
+    return false;
+  }
   for (std::size_t h = 0; h < handles.size(); ++h) {
     if (handles[h].vertices != other.handles[h].vertices) return false;
     if (transform_json(handles[h].transform) != transform_json(other.handles[h].transform)) return false;
@@ -326,14 +332,27 @@ Mesh load_session_mesh(const Session& session, const SessionSource* session_sour
   return read_obj(session.mesh);
 }
 
+Eigen::MatrixXd stage_result(Deformer& deformer, const EditStage& stage) {
+  Eigen::MatrixXd positions;
+  const auto transforms = stage.transforms();
+  deformer.deform(transforms, positions);
+  if (stage.refine) {
+    deformer.set_refinement_options(RefinementOptions{});
+    deformer.restart_refinement();
+    deformer.refine(positions, RefinementOptions{}.max_iterations);
+  }
+  return positions;
+}
+
 Eigen::MatrixXd replay_session(const Session& session, const Mesh& base, const DeformerOptions& options, const ProgressCallback& progress) {
   validate_mesh(base, session.mesh.empty() ? "session mesh" : session.mesh);
   Mesh rest = base;
   auto run_stage = [&](const EditStage& stage) {
-    Deformer deformer(rest, stage.constraints(), options, progress);
-    Eigen::MatrixXd positions;
-    deformer.deform(stage.transforms(), positions);
-    return positions;
+    DeformerOptions stage_options = options;
+    stage_options.prepare_refinement = stage.refine;
+    Deformer deformer(rest, stage.constraints(), stage_options, progress);
+    if (stage.refine && progress) progress("refining until converged");
+    return stage_result(deformer, stage);
   };
   for (const auto& stage : session.applied) rest.positions = run_stage(stage);
   if (session.current.handles.empty()) return rest.positions;

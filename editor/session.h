@@ -12,6 +12,7 @@
 
 #include "hdeform/constraints.h"
 #include "hdeform/deformer.h"
+#include "hdeform/deformer.h"
 #include "hdeform/handle_transform.h"
 #include "hdeform/mesh.h"
 
@@ -26,6 +27,7 @@ struct EditStage {
   std::vector<int> region_of_interest;  // empty: the whole mesh
   std::vector<int> fixed;
   std::vector<SessionHandle> handles;
+  bool refine = false;  // as-rigid-as-possible refinement after the paper's update (see stage_result)
 
   EditConstraints constraints() const;
   std::vector<HandleTransform> transforms() const;
@@ -71,6 +73,13 @@ void check_session_against_mesh(const Session& session, Eigen::Index vertex_coun
 // The session's base mesh (an OBJ, or a built-in shape). With `source`, a problem also names the
 // session file's line.
 Mesh load_session_mesh(const Session& session, const SessionSource* source = nullptr);
+
+// A stage's result as every saved or applied mesh is computed, in the editor and by `hdeform edit
+// --session` alike: the paper's update for the stage's transforms and, when the stage refines,
+// refinement iterations from the paper's result (a cold start, whatever the deformer did before)
+// until they converge with the default RefinementOptions. The same bits wherever it runs.
+// `deformer` must have the stage's mesh and constraints.
+Eigen::MatrixXd stage_result(Deformer& deformer, const EditStage& stage);
 
 // The rest shape after the applied stages, then the current stage's result (the rest shape
 // itself when the current stage has no handle). `progress` as for Deformer.

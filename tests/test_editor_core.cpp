@@ -166,6 +166,38 @@ TEST_F(DocumentTest, TheResultIsTheBatchReplayOfItsSessionAndApplyChainsStages) 
   EXPECT_EQ(document->rest().positions, shape.mesh.positions);
 }
 
+// With refinement on, the pipeline refines warm in the background (from each drag step); what the
+// document saves and applies is still exactly the batch replay of its session.
+TEST_F(DocumentTest, ARefinedResultIsTheBatchReplayWhateverThePipelineShowed) {
+  document->paint(shape.demo_constraints.fixed, cli::Layer::Fixed, false);
+  document->paint(shape.demo_constraints.handles[0], cli::Layer::Handle, false);
+  document->set_refine(true);
+  document->commit();
+  document->wait_until_ready();
+  for (int step = 1; step <= 5; ++step) {
+    document->set_pose(0, Eigen::Vector3d::UnitX(), 0.0, 1.0, Eigen::Vector3d(0.0, -0.04 * step, 0.0));
+    document->request_update();
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  document->commit();  // the end of the drag: one step
+  for (int k = 0; k < 400 && !document->refinement().status.converged; ++k) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  EXPECT_GT(document->refinement().status.iterations, 0);
+  const auto session = document->session();
+  EXPECT_TRUE(session.current.refine);
+  const Eigen::MatrixXd result = document->result();
+  EXPECT_EQ(result, cli::replay_session(session, shape.mesh, {}));
+  document->set_refine(false);
+  document->commit();
+  EXPECT_NE(document->result(), result);
+  ASSERT_TRUE(document->undo());  // the setting is part of the state
+  EXPECT_TRUE(document->refine());
+  EXPECT_EQ(document->result(), result);
+  document->apply();
+  document->commit();
+  EXPECT_EQ(document->rest().positions, result);
+  EXPECT_EQ(cli::replay_session(document->session(), shape.mesh, {}), document->result());  // the applied stage replays refined
+}
+
 TEST_F(DocumentTest, ARebuildRunsOffTheCallingThreadAndTheStateSaysSo) {
   EXPECT_EQ(document->solver_state(), cli::Document::SolverState::NoHandle);
   document->paint(shape.demo_constraints.handles[0], cli::Layer::Handle, false);

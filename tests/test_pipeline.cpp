@@ -55,5 +55,67 @@ TEST(UpdatePipeline, AFailedUpdateIsReportedAndKeepsThePreviousResult) {
   EXPECT_EQ(publications.load(), 1);
 }
 
+// With refinement on, each request is answered by the paper's update first, then by iterations
+// whose energy falls until they converge; a new request takes over after the iteration in flight.
+TEST(UpdatePipeline, RefinementFollowsThePapersUpdateAndANewRequestInterruptsIt) {
+  auto shape = make_shape(ShapeKind::Cylinder, 16);
+  DeformerOptions options;
+  options.prepare_refinement = true;
+  Deformer deformer(shape.mesh, shape.demo_constraints, options);
+  struct Seen {
+    std::uint64_t request;
+    int iterations;
+    double energy;
+    bool converged;
+  };
+  std::mutex mutex;
+  std::vector<Seen> seen;
+  Eigen::MatrixXd last;
+  UpdatePipeline pipeline(deformer, [&](const UpdatePipeline::Result& result) {
+    std::lock_guard lock(mutex);
+    seen.push_back({result.request, result.refinement.iterations, result.refinement.energy, result.refinement.converged});
+    last = result.positions;
+  });
+  const HandleTransform drag = HandleTransform::from_affine((Eigen::Matrix<double, 3, 4>() << 1, 0, 0, 0.4, 0, 1, 0, 0, 0, 0, 1, -0.1).finished());
+  pipeline.set_refinement(true);
+  const std::uint64_t first = pipeline.submit(std::span(&drag, 1));
+  pipeline.wait_idle();  // until converged
+  ASSERT_GT(seen.size(), 3u);
+  EXPECT_EQ(seen.front().request, first);
+  EXPECT_EQ(seen.front().iterations, 0);  // the paper's update comes first
+  for (std::size_t k = 1; k < seen.size(); ++k) {
+    EXPECT_EQ(seen[k].request, first);
+    EXPECT_EQ(seen[k].iterations, static_cast<int>(k));
+    if (k > 1) {
+      EXPECT_LE(seen[k].energy, seen[k - 1].energy * (1.0 + 1e-12));
+    }
+  }
+  EXPECT_TRUE(seen.back().converged);
+  // The same as refining by hand from the same start.
+  {
+    Deformer alone(shape.mesh, shape.demo_constraints, options);
+    Eigen::MatrixXd expected;
+    alone.deform(std::span(&drag, 1), expected);
+    alone.refine(expected, 1000);
+    EXPECT_EQ(last, expected);
+  }
+  // A new request while refining: answered at once by its own update, then refined in turn.
+  const std::size_t before = seen.size();
+  const HandleTransform further = drag.at_fraction(0.5);
+  const std::uint64_t second = pipeline.submit(std::span(&further, 1));
+  pipeline.wait_idle();
+  ASSERT_GT(seen.size(), before + 1);
+  EXPECT_EQ(seen[before].request, second);
+  EXPECT_EQ(seen[before].iterations, 0);
+  EXPECT_TRUE(seen.back().converged);
+  // Off: updates only.
+  pipeline.set_refinement(false);
+  const std::size_t off = seen.size();
+  pipeline.submit(std::span(&drag, 1));
+  pipeline.wait_idle();
+  EXPECT_EQ(seen.size(), off + 1);
+  EXPECT_EQ(seen.back().iterations, 0);
+}
+
 }  // namespace
 }  // namespace hdeform

@@ -202,7 +202,10 @@ TEST(Refinement, NothingMovedHasZeroEnergyAndStaysAtRest) {
   Eigen::MatrixXd positions;
   const HandleTransform identity = HandleTransform::identity();
   deformer.deform(std::span(&identity, 1), positions);
-  EXPECT_EQ(deformer.refine(positions, 10), 1);  // converged at once
+  const Eigen::MatrixXd paper = positions;
+  EXPECT_EQ(deformer.refine(positions, 10), 0);  // converged before any iteration
+  EXPECT_TRUE(deformer.refinement_status().converged);
+  EXPECT_EQ(positions, paper);  // the paper's result (the rest shape to rounding), untouched
   // Zero up to the rounding of sums of terms of the size of the rest edges' Σ w‖e‖².
   double scale = 0.0;
   const auto weights = cotangent_weights(drag.shape.mesh);
@@ -214,13 +217,35 @@ TEST(Refinement, NothingMovedHasZeroEnergyAndStaysAtRest) {
   }
   EXPECT_LE(std::abs(deformer.refinement_status().energy), 1e-12 * scale);
   EXPECT_LE((positions - drag.shape.mesh.positions).cwiseAbs().maxCoeff(), 1e-12);
-  // ... also after a bent edit: its warm start is dropped for the paper's result (the rest shape).
+  // ... also after a bent edit (reset to rest: nothing to refine).
   deformer.deform(std::span(&drag.sideways, 1), positions);
   deformer.refine(positions, 30);
   deformer.deform(std::span(&identity, 1), positions);
-  deformer.refine(positions, 10);
-  EXPECT_TRUE(deformer.refinement_status().started_from_paper);
+  EXPECT_EQ(deformer.refine(positions, 10), 0);
   EXPECT_LE((positions - drag.shape.mesh.positions).cwiseAbs().maxCoeff(), 1e-12);
+}
+
+TEST(Refinement, AWarmStartThatDoesWorseThanThePapersResultIsDropped) {
+  const Drag drag;
+  Deformer deformer(drag.shape.mesh, drag.shape.demo_constraints, refined(true, 1e-10));
+  Eigen::MatrixXd positions;
+  deformer.deform(std::span(&drag.sideways, 1), positions);
+  deformer.refine(positions, 60);
+  EXPECT_FALSE(deformer.refinement_status().started_from_paper);  // a first edit starts from the paper
+  // Nearly back at rest: the bent rotations are a poor start, the paper's result a good one.
+  const HandleTransform nudge = drag.sideways.at_fraction(0.01);
+  deformer.deform(std::span(&nudge, 1), positions);
+  deformer.refine(positions, 1);
+  EXPECT_TRUE(deformer.refinement_status().started_from_paper);
+  EXPECT_LE(deformer.refinement_status().energy, deformer.refinement_status().unrefined_energy);
+  // A small step onwards from the bent shape keeps the warm start.
+  deformer.deform(std::span(&drag.sideways, 1), positions);
+  deformer.refine(positions, 60);
+  const HandleTransform further = drag.sideways.at_fraction(1.02);
+  deformer.deform(std::span(&further, 1), positions);
+  deformer.refine(positions, 1);
+  EXPECT_FALSE(deformer.refinement_status().started_from_paper);
+  EXPECT_LT(deformer.refinement_status().energy, 0.5 * deformer.refinement_status().unrefined_energy);
 }
 
 TEST(Refinement, ConstrainedVerticesStayExactlyAtTheirTargets) {

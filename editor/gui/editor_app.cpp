@@ -327,6 +327,7 @@ class EditorApp {
         return std::pair{session, load_session_mesh(session, &source)};
       }
       Session session;
+      session.current.refine = options.refine;
       session.mesh = options.mesh.empty() ? "shape:cactus" : options.mesh;
       if (!session.mesh.starts_with("shape:")) session.mesh = std::filesystem::absolute(session.mesh).lexically_normal().string();
       Mesh mesh = load_session_mesh(session);
@@ -477,8 +478,9 @@ class EditorApp {
       });
       return;
     }
-    start_load([path] {
+    start_load([path, refine = options_.refine] {
       Session session;
+      session.current.refine = refine;
       session.mesh = std::filesystem::absolute(path).lexically_normal().string();
       return std::pair{session, load_session_mesh(session)};
     });
@@ -798,6 +800,28 @@ class EditorApp {
       case Document::SolverState::Building: ImGui::TextWrapped("%s...", document_->solver_message().c_str()); break;
       case Document::SolverState::Failed: ImGui::TextColored(ImVec4(1, 0.4f, 0.4f, 1), "%s", document_->solver_message().c_str()); break;
       case Document::SolverState::Ready: break;
+    }
+    bool refine = document_->refine();
+    if (ImGui::Checkbox("Refine (as rigid as possible)", &refine)) {
+      document_->set_refine(refine);
+      document_->commit();
+      if (!refine) document_->request_update();  // back to the paper's result on screen
+      status_ = refine ? "Refinement on: after each update, iterations until the shape settles" : "Refinement off: the paper's method alone";
+    }
+    if (ImGui::IsItemHovered()) {
+      ImGui::SetTooltip("Local/global as-rigid-as-possible iterations after the paper's update: a drag bends\n"
+                        "instead of shearing. Each frame shows the newest update first; iterations follow while\n"
+                        "the input rests, each shown as it lands, until the energy settles.");
+    }
+    if (refine) {
+      const auto view = document_->refinement();
+      const auto& status = view.status;
+      if (status.iterations == 0) {
+        ImGui::TextDisabled("Refinement: waiting for the update");
+      } else {
+        ImGui::Text("Refinement: %d iterations%s", status.iterations, status.converged ? ", settled" : "...");
+        ImGui::Text("Energy %.4g (paper's %.4g, %.1f ms each)", status.energy, status.unrefined_energy, view.iteration_ms);
+      }
     }
     ImGui::Checkbox("Solve before each frame", &latch_solves_);
     if (ImGui::IsItemHovered()) {

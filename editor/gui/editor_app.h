@@ -25,6 +25,7 @@ struct EditorOptions {
   std::string device;
   std::string pacing = "auto";  // latch, free, or auto: latch on a CPU device (see wait_for_device)
   bool validation = false;
+  bool refine = true;   // a new session refines (as-rigid-as-possible); a session file says for itself
   std::filesystem::path recovery_file;  // empty: default_recovery_path()
   std::string restore = "ask";          // ask, yes or no, when a recovery file is found
   std::string screenshot_dir = ".";

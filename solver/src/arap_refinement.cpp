@@ -255,12 +255,20 @@ void ArapRefinement::begin(const Eigen::MatrixXd& positions) {
   energy_ = fit_rotations(rotation_[static_cast<std::size_t>(current_)], paper_rotation_, kFullFitSteps);
   status_.unrefined_energy = unlimited_energy_;  // the plain ARAP energy of the paper's result
   status_.energy = energy_;
+  status_.converged = energy_ <= energy_floor_;  // nothing moved: nothing to refine, the result stays as it is
   consistent_ = !warm_;
   if (!warm_) std::swap(rotation_[static_cast<std::size_t>(current_)], paper_rotation_);
   warm_ = true;
   stored_ = 0;
   oldest_ = 0;
   has_previous_ = false;
+}
+
+void ArapRefinement::restart() {
+  for (auto& rotations : rotation_) std::fill(rotations.begin(), rotations.end(), Eigen::Matrix3d::Identity());
+  std::fill(field_.begin(), field_.end(), Eigen::Quaterniond::Identity());
+  current_ = 0;
+  warm_ = false;
 }
 
 void ArapRefinement::assemble() {

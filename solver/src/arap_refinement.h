@@ -69,6 +69,8 @@ class ArapRefinement {
   // turns as the paper says; if that first iteration ends above the paper's result, it restarts
   // from there (a reset to the rest shape, say).
   void begin(const Eigen::MatrixXd& positions);
+  // The next begin() is a first edit's: no rotations carry over.
+  void restart();
 
   // One iteration as four stages, in this order.
   void assemble();  // right-hand side from the current rotations

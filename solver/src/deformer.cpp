@@ -327,7 +327,7 @@ int Deformer::refine(Eigen::MatrixXd& positions, int max_iterations) {
   }
   int iterations = 0;
   graph_->refined = &positions;
-  while (iterations < max_iterations && !(refinement_->status().iterations > 0 && refinement_->status().converged)) {
+  while (iterations < max_iterations && !refinement_->status().converged) {
     const auto start = Clock::now();
     update_arena_.execute([this] {
       graph_->refine_start.try_put(Message());
@@ -337,6 +337,11 @@ int Deformer::refine(Eigen::MatrixXd& positions, int max_iterations) {
     ++iterations;
   }
   return iterations;
+}
+
+void Deformer::restart_refinement() {
+  if (refinement_) refinement_->restart();
+  refinement_pending_ = true;
 }
 
 const RefinementStatus& Deformer::refinement_status() const {

@@ -28,7 +28,7 @@ std::uint64_t UpdatePipeline::submit(std::span<const HandleTransform> transforms
     pending_.assign(transforms.begin(), transforms.end());
     if (has_pending_) ++superseded_;
     has_pending_ = true;
-    running_ = true;
+    refined_out_ = !refine_;
     request = pending_request_ = ++submitted_;
   }
   wake_.notify_one();
@@ -38,35 +38,76 @@ std::uint64_t UpdatePipeline::submit(std::span<const HandleTransform> transforms
 void UpdatePipeline::run() {
   for (;;) {
     std::uint64_t request = 0;
+    bool update = false;
     {
       std::unique_lock lock(mutex_);
-      if (!has_pending_) {
-        running_ = false;
+      busy_ = false;
+      if (!has_work()) {
         idle_.notify_all();
-        wake_.wait(lock, [this] { return has_pending_ || stopping_; });
-        if (stopping_) return;
+        wake_.wait(lock, [&] { return has_work() || stopping_; });
       }
-      std::swap(current_, pending_);
-      has_pending_ = false;
-      request = pending_request_;
+      if (stopping_) return;
+      busy_ = true;
+      if (has_pending_) {
+        std::swap(current_, pending_);
+        has_pending_ = false;
+        request = pending_request_;
+        answered_request_ = request;
+        update = true;
+      } else {
+        request = answered_request_;
+      }
     }
     try {
       const auto start = std::chrono::steady_clock::now();
-      deformer_.deform(current_, positions_);
+      RefinementStatus status;
+      bool converged = true;
+      if (update) {
+        deformer_.deform(current_, positions_);
+      } else {
+        deformer_.refine(positions_, 1);
+        status = deformer_.refinement_status();
+        converged = status.converged;
+      }
       const double elapsed = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-      publish_(Result{positions_, request, elapsed});
+      publish_(Result{positions_, request, elapsed, status});
       std::lock_guard lock(mutex_);
-      ++finished_;
+      if (update) {
+        ++finished_;
+        has_result_ = true;
+        refined_out_ = !refine_;
+      } else {
+        refined_out_ = converged || status.iterations >= deformer_.refinement_options().max_iterations;
+      }
     } catch (...) {
       std::lock_guard lock(mutex_);
       error_ = std::current_exception();
+      refined_out_ = true;
     }
   }
 }
 
+bool UpdatePipeline::has_work() const { return has_pending_ || (refine_ && !refined_out_ && has_result_); }
+
 void UpdatePipeline::wait_idle() {
   std::unique_lock lock(mutex_);
-  idle_.wait(lock, [this] { return !running_; });
+  idle_.wait(lock, [this] { return !busy_ && !has_work(); });
+}
+
+void UpdatePipeline::set_refinement(bool on) {
+  {
+    std::lock_guard lock(mutex_);
+    if (refine_ == on) return;
+    refine_ = on;
+    refined_out_ = !on;
+  }
+  wake_.notify_one();
+  idle_.notify_all();  // turned off, there may be nothing left to wait for
+}
+
+bool UpdatePipeline::refinement() const {
+  std::lock_guard lock(mutex_);
+  return refine_;
 }
 
 std::uint64_t UpdatePipeline::finished_updates() const {

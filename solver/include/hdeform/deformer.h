@@ -99,9 +99,13 @@ class Deformer {
   int refine(Eigen::MatrixXd& positions, int max_iterations);
   // ... one iteration at a time, for a caller that shows each (false once converged).
   bool refine_once(Eigen::MatrixXd& positions) { return refine(positions, 1) == 1 && !refinement_status().converged; }
+  // The next refine() starts cold, from the paper's result, as a fresh Deformer's would: the same
+  // bits as any other cold start of the same edit.
+  void restart_refinement();
   const RefinementStatus& refinement_status() const;
   const RefinementTimings& refinement_timings() const;
   void set_refinement_options(const RefinementOptions& options);
+  const RefinementOptions& refinement_options() const { return options_.refinement; }
 
  private:
   struct UpdateGraph;

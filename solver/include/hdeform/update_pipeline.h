@@ -7,6 +7,10 @@
 // The updates run on a thread of the pipeline's own, not on a TBB worker: a worker driving the
 // update would be one of the P-1 workers TBB starts, leaving its parallel stages one thread
 // fewer (on 2 cores, none to help).
+//
+// With refinement on, the thread answers each request with the paper's update first and then,
+// while no newer request waits, runs as-rigid-as-possible iterations one at a time, publishing
+// each, until they converge; a new request takes over after the iteration in flight.
 #include <Eigen/Core>
 #include <condition_variable>
 #include <cstdint>
@@ -26,7 +30,9 @@ class UpdatePipeline {
   struct Result {
     const Eigen::MatrixXd& positions;
     std::uint64_t request;  // the number submit() returned for these transforms
-    double update_ms;
+    double update_ms;       // the paper's update, or the refinement iteration
+    // Refinement iterations in these positions (0: the paper's update) and where they stand.
+    RefinementStatus refinement;
   };
   // Called on a worker thread after each finished update; must not block for long.
   using Publish = std::function<void(const Result&)>;
@@ -39,8 +45,11 @@ class UpdatePipeline {
 
   // Posts transforms (one per handle); returns at once with the request's number.
   std::uint64_t submit(std::span<const HandleTransform> transforms);
-  // Blocks until no update is waiting or running.
+  // Blocks until no update is waiting or running and the refinement, when on, has converged.
   void wait_idle();
+  // Refinement after each update (off at first). Turning it on refines the last result.
+  void set_refinement(bool on);
+  bool refinement() const;
 
   std::uint64_t finished_updates() const;
   std::uint64_t superseded_requests() const;  // replaced by a newer one before they started
@@ -49,6 +58,7 @@ class UpdatePipeline {
 
  private:
   void run();
+  bool has_work() const;  // with the lock held
 
   Deformer& deformer_;
   Publish publish_;
@@ -58,10 +68,14 @@ class UpdatePipeline {
   std::vector<HandleTransform> pending_;
   std::vector<HandleTransform> current_;
   bool has_pending_ = false;
-  bool running_ = false;
+  bool busy_ = false;  // the thread is answering a request or refining (the lock is not held meanwhile)
+  bool refine_ = false;
+  bool refined_out_ = true;  // the last result needs no more iterations (converged, or no refinement)
+  bool has_result_ = false;  // a request has been answered: there is something to refine
   bool stopping_ = false;
   std::uint64_t submitted_ = 0;
   std::uint64_t pending_request_ = 0;
+  std::uint64_t answered_request_ = 0;  // the request the published positions answer
   std::uint64_t finished_ = 0;
   std::uint64_t superseded_ = 0;
   std::exception_ptr error_;
