@@ -69,6 +69,9 @@ class ArapRefinement {
   // turns as the paper says; if that first iteration ends above the paper's result, it restarts
   // from there (a reset to the rest shape, say).
   void begin(const Eigen::MatrixXd& positions);
+  // An edit that moves nothing (every handle at rest): the paper's result is the rest shape and
+  // the energy zero; nothing to iterate. The rotations stay for the next edit's warm start.
+  void begin_at_rest();
   // The next begin() is a first edit's: no rotations carry over.
   void restart();
 

@@ -283,10 +283,21 @@ void Deformer::begin_refinement(const Eigen::MatrixXd& positions) {
   const auto triangles = refinement.energy_triangles();
   auto rotations = refinement.field_rotations();
   auto scales = refinement.triangle_scales();
+  if (std::all_of(edited_.begin(), edited_.end(), [](const HandleTransform& t) { return t.is_identity(); })) {
+    refinement.begin_at_rest();
+    return;
+  }
   update_arena_.execute([&] {
     if (handle_count() == 1) {
       const HandleTransform& handle = edited_[0];
       refinement.set_turn_axis(std::abs(handle.angle) > std::numbers::pi ? std::optional<Eigen::Vector3d>(handle.axis) : std::nullopt);
+      // A drag that only moves the handle leaves the field's rotations and scales as they were.
+      const bool same_field = field_of_ && field_of_->axis == handle.axis && field_of_->angle == handle.angle && field_of_->scale == handle.scale;
+      field_of_ = handle;
+      if (same_field) {
+        refinement.begin(positions);
+        return;
+      }
       tbb::parallel_for(tbb::blocked_range<std::size_t>(0, vertices.size(), kRowGrain), [&](const auto& range) {
         for (std::size_t i = range.begin(); i != range.end(); ++i) rotations[i] = blend_rotation(handle, field_(vertices[i]));
       });
@@ -298,6 +309,7 @@ void Deformer::begin_refinement(const Eigen::MatrixXd& positions) {
         }
       });
     } else {
+      field_of_.reset();
       refinement.set_turn_axis(std::nullopt);  // interpolated quaternions turn less than half a turn
       const auto& components = graph_->components;
       tbb::parallel_for(tbb::blocked_range<std::size_t>(0, vertices.size(), kRowGrain), [&](const auto& range) {
@@ -341,6 +353,7 @@ int Deformer::refine(Eigen::MatrixXd& positions, int max_iterations) {
 
 void Deformer::restart_refinement() {
   if (refinement_) refinement_->restart();
+  field_of_.reset();
   refinement_pending_ = true;
 }
 

@@ -6,6 +6,7 @@
 #include <Eigen/Core>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <span>
 #include <string>
 #include <string_view>
@@ -136,6 +137,7 @@ class Deformer {
   std::unique_ptr<detail::ArapRefinement> refinement_;
   std::vector<HandleTransform> edited_;  // the transforms of the last deform()
   bool refinement_pending_ = false;      // deform() ran since the refinement last began an edit
+  std::optional<HandleTransform> field_of_;  // one handle: the transform the refinement's field rotations are of
 };
 
 }  // namespace hdeform

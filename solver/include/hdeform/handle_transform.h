@@ -41,6 +41,9 @@ struct HandleTransform {
   HandleTransform at_fraction(double fraction) const;
 
   Eigen::Vector3d apply(const Eigen::Vector3d& point) const { return linear * point + translation; }
+  // Moves nothing: every point stays (a pose of whole turns with no shift or scale counts as
+  // moving, since the field turns the region between).
+  bool is_identity() const { return angle == 0.0 && linear == Eigen::Matrix3d::Identity() && translation.isZero(0.0); }
 
   // R as a unit quaternion with w ≥ 0 (a pose's turns taken modulo a full turn).
   Eigen::Quaterniond rotation() const;
