@@ -356,6 +356,7 @@ void Document::install_build() {
     last_published_ = base + result.request;
   });
   pipeline_->set_refinement(refine_);
+  pipeline_->set_refinement_delay(refinement_delay_);
   request_update();
 }
 
@@ -402,6 +403,12 @@ Eigen::MatrixXd Document::result() {
   Eigen::MatrixXd positions = stage_result(*deformer_, stage);
   pipeline_->set_refinement(refine_);
   return positions;
+}
+
+void Document::set_refinement_delay(std::chrono::milliseconds delay) {
+  if (delay == refinement_delay_) return;
+  refinement_delay_ = delay;
+  if (pipeline_) pipeline_->set_refinement_delay(delay);
 }
 
 void Document::set_refine(bool on) {

@@ -6,6 +6,7 @@
 // action is an undoable step.
 #include <Eigen/Core>
 #include <atomic>
+#include <chrono>
 #include <functional>
 #include <memory>
 #include <mutex>
@@ -103,6 +104,8 @@ class Document {
   // part of the state, so undoable and in the session. The pipeline refines after each update.
   bool refine() const { return refine_; }
   void set_refine(bool on);
+  // How long the input must rest before refinement runs (UpdatePipeline::set_refinement_delay).
+  void set_refinement_delay(std::chrono::milliseconds delay);
   // The refinement of the latest publication: its iterations (0: the paper's update alone),
   // energies and whether it converged, and the last iteration's time.
   struct RefinementView {
@@ -163,6 +166,7 @@ class Document {
   std::string failure_;
   std::atomic<double> last_update_ms_{0.0};
   bool refine_ = false;
+  std::chrono::milliseconds refinement_delay_{0};
   mutable std::mutex refinement_mutex_;
   RefinementStatus refinement_;
   double refinement_ms_ = 0.0;

@@ -1,5 +1,7 @@
 #include <atomic>
+#include <chrono>
 #include <mutex>
+#include <thread>
 
 #include "hdeform/deformer.h"
 #include "hdeform/shapes.h"
@@ -115,6 +117,39 @@ TEST(UpdatePipeline, RefinementFollowsThePapersUpdateAndANewRequestInterruptsIt)
   pipeline.wait_idle();
   EXPECT_EQ(seen.size(), off + 1);
   EXPECT_EQ(seen.back().iterations, 0);
+}
+
+TEST(UpdatePipeline, WithADelayRefinementWaitsForTheInputToRest) {
+  auto shape = make_shape(ShapeKind::Cylinder, 12);
+  DeformerOptions options;
+  options.prepare_refinement = true;
+  Deformer deformer(shape.mesh, shape.demo_constraints, options);
+  using Clock = std::chrono::steady_clock;
+  std::mutex mutex;
+  std::vector<std::pair<int, Clock::time_point>> seen;  // iterations, when
+  UpdatePipeline pipeline(deformer, [&](const UpdatePipeline::Result& result) {
+    std::lock_guard lock(mutex);
+    seen.emplace_back(result.refinement.iterations, Clock::now());
+  });
+  pipeline.set_refinement(true);
+  pipeline.set_refinement_delay(std::chrono::milliseconds(120));
+  Clock::time_point last_submit;
+  for (int k = 1; k <= 5; ++k) {  // a drag: a request every 30 ms, never resting 120 ms
+    const HandleTransform step = shape.demo_transform.at_fraction(k / 5.0);
+    last_submit = Clock::now();
+    pipeline.submit(std::span(&step, 1));
+    std::this_thread::sleep_for(std::chrono::milliseconds(30));
+  }
+  pipeline.wait_idle();
+  std::lock_guard lock(mutex);
+  ASSERT_FALSE(seen.empty());
+  bool refined = false;
+  for (const auto& [iterations, when] : seen) {
+    if (iterations == 0) continue;
+    refined = true;
+    EXPECT_GE(when - last_submit, std::chrono::milliseconds(120));
+  }
+  EXPECT_TRUE(refined);
 }
 
 }  // namespace

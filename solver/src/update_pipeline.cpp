@@ -28,6 +28,7 @@ std::uint64_t UpdatePipeline::submit(std::span<const HandleTransform> transforms
     pending_.assign(transforms.begin(), transforms.end());
     if (has_pending_) ++superseded_;
     has_pending_ = true;
+    last_submit_ = std::chrono::steady_clock::now();
     refined_out_ = !refine_;
     request = pending_request_ = ++submitted_;
   }
@@ -42,11 +43,19 @@ void UpdatePipeline::run() {
     {
       std::unique_lock lock(mutex_);
       busy_ = false;
-      if (!has_work()) {
+      for (;;) {
+        if (stopping_) return;
+        if (has_pending_) break;
+        if (wants_refinement()) {
+          // Refinement waits until the input has rested for the delay (a new request ends the wait).
+          const auto ready = last_submit_ + refinement_delay_;
+          if (std::chrono::steady_clock::now() >= ready) break;
+          wake_.wait_until(lock, ready);
+          continue;
+        }
         idle_.notify_all();
         wake_.wait(lock, [&] { return has_work() || stopping_; });
       }
-      if (stopping_) return;
       busy_ = true;
       if (has_pending_) {
         std::swap(current_, pending_);
@@ -87,7 +96,16 @@ void UpdatePipeline::run() {
   }
 }
 
-bool UpdatePipeline::has_work() const { return has_pending_ || (refine_ && !refined_out_ && has_result_); }
+bool UpdatePipeline::wants_refinement() const { return refine_ && !refined_out_ && has_result_; }
+bool UpdatePipeline::has_work() const { return has_pending_ || wants_refinement(); }
+
+void UpdatePipeline::set_refinement_delay(std::chrono::milliseconds delay) {
+  {
+    std::lock_guard lock(mutex_);
+    refinement_delay_ = delay;
+  }
+  wake_.notify_one();
+}
 
 void UpdatePipeline::wait_idle() {
   std::unique_lock lock(mutex_);

@@ -12,6 +12,7 @@
 // while no newer request waits, runs as-rigid-as-possible iterations one at a time, publishing
 // each, until they converge; a new request takes over after the iteration in flight.
 #include <Eigen/Core>
+#include <chrono>
 #include <condition_variable>
 #include <cstdint>
 #include <exception>
@@ -50,6 +51,10 @@ class UpdatePipeline {
   // Refinement after each update (off at first). Turning it on refines the last result.
   void set_refinement(bool on);
   bool refinement() const;
+  // Refinement starts only once no request has come for this long (0 at first). On a CPU device,
+  // where iterations would take the cores the rasterizer needs, the editor waits for the input to
+  // rest, so that a drag is answered as fast as without refinement.
+  void set_refinement_delay(std::chrono::milliseconds delay);
 
   std::uint64_t finished_updates() const;
   std::uint64_t superseded_requests() const;  // replaced by a newer one before they started
@@ -58,7 +63,8 @@ class UpdatePipeline {
 
  private:
   void run();
-  bool has_work() const;  // with the lock held
+  bool wants_refinement() const;  // with the lock held
+  bool has_work() const;          // with the lock held
 
   Deformer& deformer_;
   Publish publish_;
@@ -76,6 +82,8 @@ class UpdatePipeline {
   std::uint64_t submitted_ = 0;
   std::uint64_t pending_request_ = 0;
   std::uint64_t answered_request_ = 0;  // the request the published positions answer
+  std::chrono::steady_clock::time_point last_submit_{};
+  std::chrono::milliseconds refinement_delay_{0};
   std::uint64_t finished_ = 0;
   std::uint64_t superseded_ = 0;
   std::exception_ptr error_;
