@@ -417,6 +417,43 @@ TEST(Refinement, ADragSettlesToTheSameShapeAsOneJump) {
             }()));
 }
 
+// Several handles (their rotations interpolated as quaternions) and a region of interest smaller
+// than the mesh: the refinement lowers the energy of its definition, keeps every constraint and
+// leaves the outside alone.
+TEST(Refinement, SeveralHandlesAndARegionOfInterest) {
+  const Drag drag;
+  const Mesh& mesh = drag.shape.mesh;
+  EditConstraints constraints = drag.shape.demo_constraints;
+  // Split the top ring into two handles by x; keep only the upper part of the cylinder free.
+  std::vector<int> left, right;
+  for (const int v : constraints.handles[0]) (mesh.positions(v, 0) < 0.0 ? left : right).push_back(v);
+  constraints.handles = {left, right};
+  const double bottom = mesh.positions.col(2).minCoeff(), top = mesh.positions.col(2).maxCoeff();
+  for (Eigen::Index v = 0; v < mesh.vertex_count(); ++v) {
+    if (mesh.positions(v, 2) > bottom + 0.3 * (top - bottom)) constraints.region_of_interest.push_back(static_cast<int>(v));
+  }
+  constraints.fixed.clear();  // the boundary of the region holds the rest
+  const std::vector<HandleTransform> transforms{drag.sideways, drag.sideways.at_fraction(0.6)};
+  Deformer deformer(mesh, constraints, refined(true, 1e-10));
+  Eigen::MatrixXd positions;
+  deformer.deform(transforms, positions);
+  deformer.refine(positions, 0);
+  const ReferenceArap reference(mesh, deformer);
+  const double paper = reference.energy(positions);
+  EXPECT_NEAR(deformer.refinement_status().unrefined_energy, paper, 1e-9 * paper);
+  deformer.refine(positions, 500);
+  EXPECT_LT(reference.energy(positions), 0.8 * paper);
+  EXPECT_NEAR(deformer.refinement_status().energy, reference.energy(positions), 1e-6 * paper);
+  for (std::size_t h = 0; h < 2; ++h) {
+    for (const int v : constraints.handles[h]) EXPECT_EQ(positions.row(v).transpose(), transforms[h].apply(mesh.positions.row(v).transpose()));
+  }
+  for (Eigen::Index v = 0; v < mesh.vertex_count(); ++v) {
+    if (deformer.partition().role[static_cast<std::size_t>(v)] == VertexRole::Fixed) {
+      EXPECT_EQ(positions.row(v), mesh.positions.row(v)) << v;
+    }
+  }
+}
+
 TEST(Refinement, ThePapersMultiTurnTwistKeepsItsTurns) {
   auto shape = make_shape(ShapeKind::Bar, 32);
   const auto twist = HandleTransform::about_pivot(Eigen::Vector3d::UnitZ(), Eigen::Vector3d::Zero(), 4.0 * kPi);
