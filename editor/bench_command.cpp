@@ -10,6 +10,7 @@
 #include "hdeform/constraint_io.h"
 #include "hdeform/deformer.h"
 #include "hdeform/errors.h"
+#include "hdeform/trace.h"
 #include "hdeform/update_pipeline.h"
 #ifdef HDEFORM_WITH_ENGINE
 #include "render_bench.h"
@@ -45,6 +46,7 @@ class BenchCommand final : public BatchCommand {
     command->add_option("--threads", threads_, "Worker threads (default: all cores)");
     command->add_option("--out", out_path_, "Also write the JSON report to this file");
     command->add_flag("--quiet", quiet_, "No progress on stderr");
+    trace_.add_options(*command);
 #ifdef HDEFORM_WITH_ENGINE
     command->add_flag("--render", render_, "Measure rendering instead: frame times and publishing (offscreen)");
     command->add_option("--size", render_options_.size, "--render: image size")->capture_default_str();
@@ -62,6 +64,7 @@ class BenchCommand final : public BatchCommand {
     const SolverChoice solver{.threads = threads_};
     const auto threads = solver.apply_threads();
     const Progress progress(quiet_);
+    trace_.begin();
 
     auto start = Clock::now();
     LoadedMesh loaded = load_mesh(source_);
@@ -189,6 +192,7 @@ class BenchCommand final : public BatchCommand {
     }
 
     bench_refinement(mesh, constraints, transform, report, progress);
+    bench_trace_overhead(mesh, constraints, transform, report, progress);
 
     // The update as the editor runs it: posted to the pipeline's thread, one request at a time.
     {
@@ -209,6 +213,34 @@ class BenchCommand final : public BatchCommand {
   }
 
  private:
+  // What recording a trace costs a drag update: medians with the recorder off and on, in
+  // alternating blocks (a recording of --trace's own goes on; otherwise a scratch one is made and
+  // dropped).
+  void bench_trace_overhead(const Mesh& mesh, const EditConstraints& constraints, const HandleTransform& transform, nlohmann::json& report,
+                            const Progress& progress) const {
+    progress("trace overhead");
+    Deformer deformer(mesh, constraints);
+    Eigen::MatrixXd positions;
+    const bool recording = trace_.wanted();
+    if (!recording) trace::start(std::size_t{1} << 16);
+    std::vector<double> samples[2];
+    for (int block = 0; block < 4; ++block) {
+      const bool on = block % 2 == 1;
+      if (on) trace::resume();
+      else trace::stop();
+      for (int k = 0; k <= steps_; ++k) {
+        const HandleTransform step = transform.at_fraction(std::max(k, 1) / static_cast<double>(steps_));
+        const auto start = Clock::now();
+        deformer.deform(std::span(&step, 1), positions);
+        if (k > 0) samples[on ? 1 : 0].push_back(since(start));
+      }
+    }
+    if (recording) trace::resume();
+    else trace::stop();
+    const double off = summarize(samples[0]).median, on = summarize(samples[1]).median;
+    report["trace_overhead"] = {{"update_ms_off", off}, {"update_ms_on", on}, {"ratio", on / off}};
+  }
+
   // The as-rigid-as-possible refinement: one iteration and its stages; then how long the drag
   // (kRefineDragSteps updates with kRefineDragIterations iterations each, as `edit --steps 10
   // --refine 5`) and a cold start from the paper's result take to come within 1% of the converged
@@ -283,6 +315,10 @@ class BenchCommand final : public BatchCommand {
 
   void finish(nlohmann::json& report) const {
     report["peak_rss_mb"] = peak_rss_mb();
+    if (trace_.wanted()) {
+      trace_.finish();
+      report["trace"] = trace_.path;
+    }
     if (!out_path_.empty()) {
       const std::string text = report.dump(2) + "\n";
       write_file_atomically(out_path_, [&](std::ostream& out) { out << text; });
@@ -291,6 +327,7 @@ class BenchCommand final : public BatchCommand {
   }
 
   MeshSource source_;
+  TraceChoice trace_;
   std::string fixed_path_;
   std::string handle_path_;
   std::string transform_path_;

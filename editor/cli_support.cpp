@@ -1,15 +1,18 @@
 #include "cli_support.h"
 #include "hdeform/constraint_io.h"
 #include "hdeform/errors.h"
+#include "hdeform/trace.h"
 
 #include <unordered_map>
 
 #include <sys/resource.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 #include <iostream>
 #include <mutex>
 
@@ -53,6 +56,20 @@ void SolverChoice::add_options(CLI::App& command) {
   command.add_option("--backend", backend, "Factorization backend: eigen or cholmod")->capture_default_str();
   command.add_option("--schedule", schedule, "Column solves: blocked, per-column or thread-groups")->capture_default_str();
   command.add_option("--threads", threads, "Worker threads (default: all cores)");
+}
+
+void TraceChoice::add_options(CLI::App& command) {
+  command.add_option("--trace", path, "Write a timeline of the run to this file (Chrome trace-event JSON: Perfetto, chrome://tracing)");
+}
+
+void TraceChoice::begin() const {
+  if (wanted()) trace::start();
+}
+
+void TraceChoice::finish() const {
+  if (!wanted()) return;
+  trace::stop();
+  trace::write(path);
 }
 
 void RefineChoice::add_options(CLI::App& command) {
@@ -153,6 +170,13 @@ double peak_rss_mb() {
   rusage usage{};
   getrusage(RUSAGE_SELF, &usage);
   return static_cast<double>(usage.ru_maxrss) / 1024.0;
+}
+
+double resident_mb() {
+  std::ifstream statm("/proc/self/statm");
+  long pages = 0, resident = 0;
+  if (!(statm >> pages >> resident)) return 0.0;
+  return static_cast<double>(resident) * static_cast<double>(sysconf(_SC_PAGESIZE)) / (1024.0 * 1024.0);
 }
 
 void print_json_line(const nlohmann::json& value) {

@@ -74,6 +74,18 @@ struct RefineChoice {
   RefinementOptions options() const;
 };
 
+// --trace FILE: a timeline of the run in the Chrome trace-event format (trace.h).
+struct TraceChoice {
+  std::string path;
+
+  void add_options(CLI::App& command);
+  bool wanted() const { return !path.empty(); }
+  // Starts recording when a file was asked for.
+  void begin() const;
+  // Writes it (after a successful run only: a failed command leaves no output file).
+  void finish() const;
+};
+
 // Progress lines on stderr, with the time since the command started; silent with --quiet.
 class Progress {
  public:
@@ -98,6 +110,8 @@ void refuse_overwriting_inputs(const std::string& output, const std::vector<std:
 
 // Largest resident set size of this process so far, in MB.
 double peak_rss_mb();
+// Resident set size now, in MB (0 where /proc is unavailable).
+double resident_mb();
 
 // Exactly one JSON object on one line of stdout (safe from any thread).
 void print_json_line(const nlohmann::json& value);

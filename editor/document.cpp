@@ -348,9 +348,16 @@ void Document::install_build() {
   pipeline_ = std::make_unique<UpdatePipeline>(*deformer_, [this, base](const UpdatePipeline::Result& result) {
     if (result.refinement.iterations == 0) last_update_ms_ = result.update_ms;
     {
+      // The deformer's timings are its last update's or iteration's: this thread just ran it.
       std::lock_guard lock(refinement_mutex_);
       refinement_ = result.refinement;
       refinement_ms_ = result.refinement.iterations > 0 ? result.update_ms : 0.0;
+      constexpr std::size_t kKept = 512;
+      if (result.refinement.iterations == 0) {
+        if (update_timings_.size() < kKept) update_timings_.push_back(deformer_->last_update());
+      } else if (refinement_timings_.size() < kKept) {
+        refinement_timings_.push_back(deformer_->refinement_timings());
+      }
     }
     if (publish_) publish_(result.positions, base + result.request);
     last_published_ = base + result.request;
@@ -414,6 +421,20 @@ void Document::set_refinement_delay(std::chrono::milliseconds delay) {
 void Document::set_refine(bool on) {
   refine_ = on;
   if (pipeline_) pipeline_->set_refinement(on);
+}
+
+std::vector<UpdateTimings> Document::take_update_timings() {
+  std::lock_guard lock(refinement_mutex_);
+  std::vector<UpdateTimings> taken;
+  taken.swap(update_timings_);
+  return taken;
+}
+
+std::vector<RefinementTimings> Document::take_refinement_timings() {
+  std::lock_guard lock(refinement_mutex_);
+  std::vector<RefinementTimings> taken;
+  taken.swap(refinement_timings_);
+  return taken;
 }
 
 Document::RefinementView Document::refinement() const {

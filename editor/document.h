@@ -113,6 +113,10 @@ class Document {
     double iteration_ms = 0.0;
   };
   RefinementView refinement() const;
+  // The stage timings of the updates and refinement iterations published since the last call
+  // (for the profiler panel; at most the last few hundred are kept).
+  std::vector<UpdateTimings> take_update_timings();
+  std::vector<RefinementTimings> take_refinement_timings();
 
   // Posts the current poses to the pipeline (newest wins); returns the request number (0 when
   // nothing is solved yet).
@@ -170,6 +174,8 @@ class Document {
   mutable std::mutex refinement_mutex_;
   RefinementStatus refinement_;
   double refinement_ms_ = 0.0;
+  std::vector<UpdateTimings> update_timings_;          // with refinement_mutex_
+  std::vector<RefinementTimings> refinement_timings_;  // with refinement_mutex_
   std::atomic<std::uint64_t> last_published_{0};
   std::uint64_t request_base_ = 0;  // requests of earlier pipelines, so that numbers keep growing
   std::uint64_t last_request_ = 0;

@@ -34,6 +34,7 @@ class EditCommand final : public BatchCommand {
         ->capture_default_str();
     solver_.add_options(*command);
     refine_.add_options(*command);
+    trace_.add_options(*command);
     command->add_flag("--quiet", quiet_, "No progress or warnings on stderr");
 #ifdef HDEFORM_WITH_ENGINE
     command->add_option("--png", png_path_, "Also render the result to this PNG (fixed and handle vertices coloured)");
@@ -62,6 +63,8 @@ class EditCommand final : public BatchCommand {
     inputs.insert(inputs.end(), transform_paths_.begin(), transform_paths_.end());
     refuse_overwriting_inputs(out_path_, inputs);
     if (!png_path_.empty()) refuse_overwriting_inputs(png_path_, inputs);
+    if (trace_.wanted()) refuse_overwriting_inputs(trace_.path, inputs);
+    trace_.begin();
     const auto threads = solver_.apply_threads();
     const Progress progress(quiet_);
     DeformerOptions options = DeformerOptions::solver(solver_.parsed_backend(), solver_.parsed_schedule());
@@ -95,6 +98,7 @@ class EditCommand final : public BatchCommand {
       if (transforms.empty()) {
         // Nothing is being edited: the result is the rest shape after the applied stages.
         write_obj(out_path_, loaded.mesh);
+        trace_.finish();
         print_json_line({{"command", "edit"}, {"mesh", mesh_name}, {"session", session_path_}, {"vertices", loaded.mesh.vertex_count()},
                          {"triangles", loaded.mesh.triangle_count()}, {"handles", 0}, {"output", out_path_}});
         return 0;
@@ -216,6 +220,10 @@ class EditCommand final : public BatchCommand {
                           {"rejected", status.rejected}};
     }
     if (!picture.is_null()) report["picture"] = picture;
+    if (trace_.wanted()) {
+      trace_.finish();
+      report["trace"] = trace_.path;
+    }
     print_json_line(report);
     return 0;
   }
@@ -224,6 +232,7 @@ class EditCommand final : public BatchCommand {
   MeshSource source_;
   SolverChoice solver_;
   RefineChoice refine_;
+  TraceChoice trace_;
   std::string session_path_;
   std::string fixed_path_;
   std::string roi_path_;

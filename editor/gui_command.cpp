@@ -40,6 +40,8 @@ class GuiCommand final : public BatchCommand {
         ->capture_default_str();
     command->add_option("--benchmark-drag", options_.benchmark_drag_seconds, "Drag the first handle for this many seconds, report frame times and latency, quit");
     command->add_option("--benchmark-out", options_.benchmark_out, "Also write the benchmark report to this file");
+    command->add_option("--trace", options_.trace,
+                        "Write a timeline of the session at exit (Chrome trace-event JSON: inputs, frames, the device's time, updates)");
     return command;
   }
 

@@ -23,6 +23,7 @@ class TransferCommand final : public BatchCommand {
                         "Meshes the results should match, one per pose (the target's connectivity): reports the RMS vertex error "
                         "after rigid alignment over the bounding-box diagonal");
     solver_.add_options(*command);
+    trace_.add_options(*command);
     command->add_flag("--quiet", quiet_, "No progress or warnings on stderr");
     return command;
   }
@@ -46,8 +47,10 @@ class TransferCommand final : public BatchCommand {
       outputs.push_back((std::filesystem::path(out_dir_) / (name + ".obj")).string());
       refuse_overwriting_inputs(outputs.back(), inputs);
     }
+    if (trace_.wanted()) refuse_overwriting_inputs(trace_.path, inputs);
     const auto threads = solver_.apply_threads();
     const Progress progress(quiet_);
+    trace_.begin();
 
     // Every input is read and checked before anything is written.
     TransferInputs loaded = load_transfer_inputs(arguments_, progress);
@@ -110,6 +113,10 @@ class TransferCommand final : public BatchCommand {
     report["per_pose"] = per_pose;
     report["out_dir"] = out_dir_;
     report["peak_rss_mb"] = peak_rss_mb();
+    if (trace_.wanted()) {
+      trace_.finish();
+      report["trace"] = trace_.path;
+    }
     print_json_line(report);
     return 0;
   }
@@ -117,6 +124,7 @@ class TransferCommand final : public BatchCommand {
  private:
   TransferArguments arguments_;
   SolverChoice solver_;
+  TraceChoice trace_;
   std::vector<std::string> pose_paths_;
   std::vector<std::string> expected_paths_;
   std::string out_dir_;

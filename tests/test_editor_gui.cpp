@@ -30,6 +30,7 @@
 #include "render_support.h"
 #include "session.h"
 #include "test_support.h"
+#include "trace_checks.h"
 
 extern char** environ;
 
@@ -382,6 +383,26 @@ TEST_F(EditorGui, PaintDragAndSaveGiveTheBatchReplayAndTheScreenShowsTheOffscree
   const auto difference = test::compare_images(window_picture, offscreen, 24);
   EXPECT_LE(difference.differing_fraction, 0.005) << "largest channel difference " << difference.largest;
   EXPECT_EQ(context->validation_message_count(), 0u);
+}
+
+// --trace: the session's timeline holds the inputs, each frame's processor work, the device's
+// time for it and its presentation, and the updates the drag asked for; no validation message.
+TEST_F(EditorGui, ATraceHoldsInputsFramesTheDeviceAndTheUpdates) {
+  auto arguments = editor_arguments("no");
+  arguments.insert(arguments.end(), {"--trace", dir.file("trace.json").string()});
+  Editor editor(arguments);
+  editor.wait_for("opened");
+  ASSERT_NO_FATAL_FAILURE(find_window());
+  const Eigen::Vector2f tip = paint_sink_and_handle(editor);
+  grab_and_drag(tip, Eigen::Vector2f(40, 30));
+  save(editor);  // nothing unsaved: Ctrl+Q quits without asking
+  quit(editor);
+  const auto events = test::read_checked_trace(dir.file("trace.json"));
+  for (const std::string name : {"pose input", "frame", "present", "update", "request", "solve", "factorization"}) {
+    EXPECT_FALSE(test::named(events, name).empty()) << "no '" << name << "' in the trace";
+  }
+  EXPECT_FALSE(test::named(events, "device frame").empty()) << "no device time (lavapipe has timestamps)";
+  EXPECT_GT(test::named(events, "frame").size(), 20u);
 }
 
 TEST_F(EditorGui, AfterKillNineTheNextStartRestoresTheStateBeforeTheKill) {

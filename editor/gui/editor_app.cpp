@@ -21,6 +21,7 @@
 #include "cli_support.h"
 #include "document.h"
 #include "gui/gizmo.h"
+#include "gui/profiler_panel.h"
 #include "gui/recovery.h"
 #include "gui/transfer_view.h"
 #include "gui/widgets.h"
@@ -34,6 +35,7 @@
 #include "hdeform/errors.h"
 #include "hdeform/mesh_io.h"
 #include "hdeform/shapes.h"
+#include "hdeform/trace.h"
 #include "mesh_picker.h"
 #include "render_support.h"
 #include "selection.h"
@@ -97,6 +99,7 @@ constexpr std::pair<const char*, const char*> kShortcuts[] = {
     {"Ctrl+O", "open a mesh (.obj) or a session (.json)"},
     {"Ctrl+S / Ctrl+Shift+S", "save / save as (the mesh, and its session beside it)"},
     {"W / H / K", "wireframe / harmonic field / vertex classes"},
+    {"P", "profiler: the last updates, iterations and frames by stage"},
     {"F12", "screenshot of the view (without the panel)"},
     {"F1", "this help"},
     {"Ctrl+T", "transfer mode: source and target side by side"},
@@ -127,6 +130,8 @@ class EditorApp {
   ~EditorApp() { shutdown(); }
 
   int run() {
+    if (!options_.trace.empty()) trace::start();
+    trace::name_thread("main");
     create_window();
     create_renderer();
     start_from_options();
@@ -143,10 +148,29 @@ class EditorApp {
         glfwSetWindowShouldClose(window_, GLFW_FALSE);
         request_quit();
       }
-      step();
-      wait_for_device();
+      {
+        const trace::Scope traced("frame", "frame");
+        const auto began = Clock::now();
+        step();
+        note_frame_work(milliseconds_between(began, Clock::now()));
+      }
+      {
+        const trace::Scope traced("wait for the device and the solve", "frame");
+        wait_for_device();
+      }
+      if (trace::enabled()) trace::counter("resident memory (MB)", resident_mb());
     }
     if (recovery_) recovery_->discard();
+    if (!options_.trace.empty()) {
+      trace::stop();
+      try {
+        trace::write(options_.trace);
+        print_json_line({{"event", "trace"}, {"path", options_.trace}});
+      } catch (const std::exception& error) {
+        std::cerr << "hdeform: error: " << error.what() << '\n';
+        exit_code_ = 1;
+      }
+    }
     return exit_code_;
   }
 
@@ -171,11 +195,13 @@ class EditorApp {
     glfwSetWindowUserPointer(window_, this);
     // Our callbacks first; ImGui's backend chains to them.
     glfwSetCursorPosCallback(window_, [](GLFWwindow* window, double, double) {
+      trace::instant("pointer moved", "input");
       static_cast<EditorApp*>(glfwGetWindowUserPointer(window))->last_input_ = Clock::now();
     });
     // Shortcuts are taken from the key events themselves, not from ImGui's per-frame key state, so
     // that a press and release between two frames still counts.
     glfwSetKeyCallback(window_, [](GLFWwindow* window, int key, int, int action, int mods) {
+      trace::instant("key", "input");
       if (action == GLFW_PRESS) static_cast<EditorApp*>(glfwGetWindowUserPointer(window))->queued_keys_.push_back({key, mods});
     });
     glfwSetDropCallback(window_, [](GLFWwindow* window, int count, const char** paths) {
@@ -526,6 +552,7 @@ class EditorApp {
   // A pose changed by input: posted now ("free"), or when the device is next free ("latch").
   void note_pose_input(Clock::time_point event_time) { note_pose_input(std::span(&event_time, 1)); }
   void note_pose_input(std::span<const Clock::time_point> events) {
+    for (std::size_t k = 0; k < events.size(); ++k) trace::instant("pose input", "input");
     unposted_events_.insert(unposted_events_.end(), events.begin(), events.end());
     if (!latch_solves_) post_pending_solve();
   }
@@ -575,6 +602,8 @@ class EditorApp {
     ImGui_ImplGlfw_NewFrame();
     ImGui::NewFrame();
     draw_panel();
+    take_profile();
+    profiler_.draw(show_profiler_);
     draw_dialogs();
     handle_keys();
     if (mode_ == Mode::Transfer) {
@@ -649,6 +678,7 @@ class EditorApp {
     if (!screenshot) ImGui_ImplVulkan_RenderDrawData(draw_data, slot.commands);
     target_->end(slot.commands, image, screenshot);
     const std::uint64_t frame = slots_->submit(slot, slot.image_available, target_->render_finished(image));
+    last_submitted_frame_ = frame;
     frame_tags_.push_back({frame, shown_tag_, waited_idle_});
     waited_idle_ = false;
     if (frame_tags_.size() > 64) frame_tags_.pop_front();
@@ -660,6 +690,32 @@ class EditorApp {
       write_screenshot(target_->read_last_image());
       screenshot_requested_ = false;
     }
+  }
+
+  // The profiler's bars: the document's updates and iterations, and each frame's processor time
+  // joined with the device's time for it once that is known.
+  void take_profile() {
+    if (document_) {
+      for (const auto& timings : document_->take_update_timings()) profiler_.add_update(timings);
+      for (const auto& timings : document_->take_refinement_timings()) profiler_.add_refinement(timings);
+    }
+    if (!slots_->has_device_times()) {
+      for (const auto& [frame, cpu_ms] : frame_work_) profiler_.add_frame(cpu_ms, 0.0);
+      frame_work_.clear();
+      return;
+    }
+    for (const auto& device : slots_->take_device_times()) {
+      const auto it = std::find_if(frame_work_.begin(), frame_work_.end(), [&](const auto& work) { return work.first == device.frame; });
+      if (it == frame_work_.end()) continue;
+      profiler_.add_frame(it->second, device.milliseconds);
+      frame_work_.erase(frame_work_.begin(), it + 1);
+    }
+    while (frame_work_.size() > 16) frame_work_.pop_front();
+  }
+
+  void note_frame_work(double cpu_ms) {
+    if (last_submitted_frame_ != 0) frame_work_.emplace_back(last_submitted_frame_, cpu_ms);
+    last_submitted_frame_ = 0;
   }
 
   // Frames the device finished (timed by a thread that waits on a timeline semaphore): the
@@ -828,6 +884,7 @@ class EditorApp {
         ImGui::Text("Energy %.4g (paper's %.4g, %.1f ms each)", status.energy, status.unrefined_energy, view.iteration_ms);
       }
     }
+    ImGui::Checkbox("Profiler (P)", &show_profiler_);
     ImGui::Checkbox("Solve before each frame", &latch_solves_);
     if (ImGui::IsItemHovered()) {
       ImGui::SetTooltip("On: a frame waits up to %.0f ms for the solve of the newest input (best on a CPU device).\n"
@@ -1087,6 +1144,7 @@ class EditorApp {
       view_dirty_ = true;
     }
     if (pressed(GLFW_KEY_K)) settings_.show_classes = !settings_.show_classes;
+    if (pressed(GLFW_KEY_P)) show_profiler_ = !show_profiler_;
   }
 
   // Whether `key` was pressed since the last frame with exactly the modifiers `mods` (of Ctrl,
@@ -1489,6 +1547,10 @@ class EditorApp {
   std::deque<double> latencies_;
   std::vector<Clock::time_point> unposted_events_;  // inputs whose solve is not posted yet
   bool latch_solves_ = false;
+  ProfilerPanel profiler_;
+  bool show_profiler_ = false;
+  std::deque<std::pair<std::uint64_t, double>> frame_work_;  // frame, processor milliseconds
+  std::uint64_t last_submitted_frame_ = 0;
   std::deque<double> update_times_;
   double last_update_seen_ = 0.0;
   bool benchmark_active_ = false;

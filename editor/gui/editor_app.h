@@ -31,6 +31,7 @@ struct EditorOptions {
   std::string screenshot_dir = ".";
   double benchmark_drag_seconds = 0.0;  // > 0: drag the first handle for this long, report, exit
   std::string benchmark_out;            // the benchmark's JSON report (also printed)
+  std::string trace;                    // a timeline of the session, written at exit (trace.h)
   TransferInputs transfer;              // a source or target given: start in transfer mode
 };
 

@@ -1,5 +1,9 @@
 #include "hdeform/engine/frame_slots.h"
 
+#include <array>
+
+#include "hdeform/trace.h"
+
 namespace hdeform::engine {
 
 FrameSlots::FrameSlots(const VulkanContext& context, uint32_t count) : context_(context), slots_(count) {
@@ -18,6 +22,18 @@ FrameSlots::FrameSlots(const VulkanContext& context, uint32_t count) : context_(
     VkSemaphoreCreateInfo semaphore{VK_STRUCTURE_TYPE_SEMAPHORE_CREATE_INFO};
     check(vkCreateSemaphore(device, &semaphore, nullptr, &slot.image_available), "vkCreateSemaphore");
   }
+  uint32_t families = 0;
+  vkGetPhysicalDeviceQueueFamilyProperties(context.physical_device(), &families, nullptr);
+  std::vector<VkQueueFamilyProperties> family(families);
+  vkGetPhysicalDeviceQueueFamilyProperties(context.physical_device(), &families, family.data());
+  if (context.queue_family() < families && family[context.queue_family()].timestampValidBits > 0 &&
+      context.properties().limits.timestampPeriod > 0.0f) {
+    VkQueryPoolCreateInfo pool{VK_STRUCTURE_TYPE_QUERY_POOL_CREATE_INFO};
+    pool.queryType = VK_QUERY_TYPE_TIMESTAMP;
+    pool.queryCount = 2 * count;
+    check(vkCreateQueryPool(device, &pool, nullptr, &queries_), "vkCreateQueryPool");
+    timestamp_ns_ = context.properties().limits.timestampPeriod;
+  }
 }
 
 FrameSlots::~FrameSlots() {
@@ -32,6 +48,7 @@ FrameSlots::~FrameSlots() {
     watcher_.join();
   }
   if (timeline_ != VK_NULL_HANDLE) vkDestroySemaphore(device, timeline_, nullptr);
+  if (queries_ != VK_NULL_HANDLE) vkDestroyQueryPool(device, queries_, nullptr);
   for (Slot& slot : slots_) {
     vkDestroySemaphore(device, slot.image_available, nullptr);
     vkDestroyFence(device, slot.fence, nullptr);
@@ -43,18 +60,44 @@ FrameSlots::Slot& FrameSlots::begin() {
   Slot& slot = slots_[next_];
   next_ = (next_ + 1) % count();
   check(vkWaitForFences(context_.device(), 1, &slot.fence, VK_TRUE, UINT64_MAX), "vkWaitForFences");
+  if (queries_ != VK_NULL_HANDLE && slot.frame > 0) read_device_time(slot);
   check(vkResetCommandBuffer(slot.commands, 0), "vkResetCommandBuffer");
   VkCommandBufferBeginInfo begin{VK_STRUCTURE_TYPE_COMMAND_BUFFER_BEGIN_INFO};
   begin.flags = VK_COMMAND_BUFFER_USAGE_ONE_TIME_SUBMIT_BIT;
   check(vkBeginCommandBuffer(slot.commands, &begin), "vkBeginCommandBuffer");
+  if (queries_ != VK_NULL_HANDLE) {
+    vkCmdResetQueryPool(slot.commands, queries_, 2 * slot.index, 2);
+    vkCmdWriteTimestamp(slot.commands, VK_PIPELINE_STAGE_TOP_OF_PIPE_BIT, queries_, 2 * slot.index);
+  }
   return slot;
 }
 
+void FrameSlots::read_device_time(const Slot& slot) {
+  std::array<std::uint64_t, 2> ticks{};
+  const VkResult result = vkGetQueryPoolResults(context_.device(), queries_, 2 * slot.index, 2, sizeof ticks, ticks.data(), sizeof(std::uint64_t),
+                                                VK_QUERY_RESULT_64_BIT);
+  if (result != VK_SUCCESS || ticks[1] < ticks[0]) return;
+  const double nanoseconds = static_cast<double>(ticks[1] - ticks[0]) * timestamp_ns_;
+  device_times_.push_back({slot.frame, nanoseconds * 1e-6});
+  if (device_times_.size() > 1024) device_times_.erase(device_times_.begin());
+  // Placed to end when the frame was seen finished: no later than that, exactly that long.
+  const std::int64_t end = trace::now_ns();
+  trace::complete("device frame", "frame", end - static_cast<std::int64_t>(nanoseconds), end, "device");
+}
+
+std::vector<FrameSlots::DeviceTime> FrameSlots::take_device_times() {
+  std::vector<DeviceTime> taken;
+  taken.swap(device_times_);
+  return taken;
+}
+
 std::uint64_t FrameSlots::submit(Slot& slot, VkSemaphore wait, VkSemaphore signal) {
+  if (queries_ != VK_NULL_HANDLE) vkCmdWriteTimestamp(slot.commands, VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT, queries_, 2 * slot.index + 1);
   check(vkEndCommandBuffer(slot.commands), "vkEndCommandBuffer");
   check(vkResetFences(context_.device(), 1, &slot.fence), "vkResetFences");
   const VkPipelineStageFlags wait_stage = VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT;
   const std::uint64_t frame = submitted_ + 1;
+  slot.frame = frame;
   std::vector<VkSemaphore> signals;
   std::vector<std::uint64_t> values;
   if (signal != VK_NULL_HANDLE) {

@@ -1,5 +1,7 @@
 #include "hdeform/engine/swapchain_target.h"
 
+#include "hdeform/trace.h"
+
 #include <algorithm>
 #include <chrono>
 #include <cstring>
@@ -49,6 +51,7 @@ SwapchainTarget::SwapchainTarget(const VulkanContext& context, std::function<VkE
   create_swapchain();
   if (present_on_thread) {
     presenter_ = std::thread([this] {
+      trace::name_thread("presenter");
       std::unique_lock lock(present_mutex_);
       for (;;) {
         present_signal_.wait(lock, [this] { return stopping_ || !to_present_.empty(); });
@@ -286,6 +289,7 @@ void SwapchainTarget::present_now(uint32_t image) {
   VkResult result;
   {
     std::scoped_lock lock(swapchain_mutex_, context_.queue_mutex());
+    const trace::Scope traced("present", "frame");
     result = vkQueuePresentKHR(context_.queue(), &info);
   }
   if (result == VK_ERROR_OUT_OF_DATE_KHR || result == VK_SUBOPTIMAL_KHR) {

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <chrono>
 #include <limits>
+#include <optional>
 #include <numbers>
 #include <stdexcept>
 
@@ -15,6 +16,7 @@
 #include "hdeform/harmonic_field.h"
 #include "hdeform/laplacian.h"
 #include "hdeform/poisson.h"
+#include "hdeform/trace.h"
 
 namespace hdeform {
 namespace {
@@ -55,10 +57,12 @@ struct Deformer::UpdateGraph {
   Eigen::MatrixXd* refined = nullptr;
   std::vector<std::unique_ptr<Node>> nodes;
 
-  // A stage whose duration is added to `*stage_ms` (zeroed before each update).
+  // A stage, named in the trace, whose duration is added to `*stage_ms` (zeroed before each
+  // update) when given.
   template <class Body>
-  Node& add(double* stage_ms, Body body) {
-    nodes.push_back(std::make_unique<Node>(graph, [body, stage_ms](const Message&) {
+  Node& add(const char* name, double* stage_ms, Body body) {
+    nodes.push_back(std::make_unique<Node>(graph, [name, body, stage_ms](const Message&) {
+      const trace::Scope traced(name, "update");
       const auto began = Clock::now();
       body();
       if (stage_ms != nullptr) *stage_ms += milliseconds_since(began);
@@ -77,6 +81,8 @@ Deformer::Deformer(Mesh rest, EditConstraints constraints, DeformerOptions optio
 
   report("building the cotangent Laplacian");
   auto start = Clock::now();
+  std::optional<trace::Scope> stage;
+  stage.emplace("Laplacian, inspection, partition", "set-up");
   weights_ = cotangent_weights(rest_);
   inspection_ = inspect_mesh(rest_, weights_);
   partition_ = partition_vertices(rest_, weights_, constraints_);
@@ -90,17 +96,20 @@ Deformer::Deformer(Mesh rest, EditConstraints constraints, DeformerOptions optio
   const auto laplacian = cotangent_laplacian(rest_, weights_);
   timings_.laplacian_ms = milliseconds_since(start);
 
+  stage.emplace("factorization", "set-up");
   report("factoring " + std::to_string(partition_.free_vertices.size()) + " unknowns (" +
          std::string(to_string(options_.backend)) + ")");
   system_ = std::make_unique<DirichletSystem>(laplacian, partition_, options_.backend);
   timings_.factor_ms = system_->factor_ms();
 
+  stage.emplace("harmonic field", "set-up");
   report("solving the harmonic field");
   start = Clock::now();
   field_ = harmonic_field(*system_, partition_);
   timings_.field_ms = milliseconds_since(start);
   prepare_update_triangles();
 
+  stage.emplace("update graph", "set-up");
   // The update graph and every buffer it touches, allocated once; the graph attaches to the
   // arena it is created in.
   update_arena_.execute([this] { graph_ = std::make_unique<UpdateGraph>(); });
@@ -110,7 +119,7 @@ Deformer::Deformer(Mesh rest, EditConstraints constraints, DeformerOptions optio
   g.coordinates = ColumnBlocks(free_rows, 3, options_.schedule);
 
   auto& t = last_update_;
-  Node& targets = g.add(&t.targets_ms, [this] {
+  Node& targets = g.add("targets", &t.targets_ms, [this] {
     auto& positions = *graph_->positions;
     const auto& transforms = graph_->transforms;
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, partition_.role.size(), kRowGrain), [&](const auto& range) {
@@ -132,14 +141,14 @@ Deformer::Deformer(Mesh rest, EditConstraints constraints, DeformerOptions optio
   Node* maps_node = nullptr;
   if (handle_count() == 1) {
     g.axial_maps.coefficients.resize(update_triangles_.size());
-    maps_node = &g.add(&t.maps_ms, [this] { sample_blend_maps(triangle_field_, graph_->transforms[0], graph_->axial_maps); });
+    maps_node = &g.add("maps", &t.maps_ms, [this] { sample_blend_maps(triangle_field_, graph_->transforms[0], graph_->axial_maps); });
     tbb::flow::make_edge(g.start, *maps_node);
   } else {
     g.fields = ColumnBlocks(free_rows, kInterpolatedComponents, options_.schedule);
     g.components.resize(vertex_count, kInterpolatedComponents);
     g.handle_values.resize(handle_count());
     g.maps.resize(update_triangles_.size());
-    Node& field_rhs = g.add(&t.field_ms, [this] {
+    Node& field_rhs = g.add("field right-hand side", &t.field_ms, [this] {
       auto& u = *graph_;
       for (std::size_t k = 0; k < u.handle_values.size(); ++k) u.handle_values[k] = interpolation_value(u.transforms[k]);
       const auto identity = identity_interpolation_value();
@@ -158,7 +167,7 @@ Deformer::Deformer(Mesh rest, EditConstraints constraints, DeformerOptions optio
       });
     });
     tbb::flow::make_edge(g.start, field_rhs);
-    Node& components = g.add(&t.field_ms, [this] {
+    Node& components = g.add("field components", &t.field_ms, [this] {
       auto& u = *graph_;
       tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, system_->free_count(), kRowGrain), [&](const auto& range) {
         for (Eigen::Index row = range.begin(); row != range.end(); ++row) {
@@ -167,19 +176,19 @@ Deformer::Deformer(Mesh rest, EditConstraints constraints, DeformerOptions optio
         }
       });
     });
-    Node& field_solve = g.add(&t.field_ms, [this] { graph_->fields.solve(system_->factor()); });
+    Node& field_solve = g.add("field solve", &t.field_ms, [this] { graph_->fields.solve(system_->factor()); });
     tbb::flow::make_edge(field_rhs, field_solve);
     tbb::flow::make_edge(field_solve, components);
-    maps_node = &g.add(&t.maps_ms, [this] { sample_interpolated_maps(graph_->components, update_mesh_triangles_, graph_->maps); });
+    maps_node = &g.add("maps", &t.maps_ms, [this] { sample_interpolated_maps(graph_->components, update_mesh_triangles_, graph_->maps); });
     tbb::flow::make_edge(components, *maps_node);
   }
 
   Node& rhs = handle_count() == 1
-                  ? g.add(&t.rhs_ms, [this] { assembler_->assemble(graph_->axial_maps, *graph_->positions, graph_->coordinates); })
-                  : g.add(&t.rhs_ms, [this] { assembler_->assemble(graph_->maps, *graph_->positions, graph_->coordinates); });
+                  ? g.add("right-hand side", &t.rhs_ms, [this] { assembler_->assemble(graph_->axial_maps, *graph_->positions, graph_->coordinates); })
+                  : g.add("right-hand side", &t.rhs_ms, [this] { assembler_->assemble(graph_->maps, *graph_->positions, graph_->coordinates); });
   tbb::flow::make_edge(*maps_node, rhs);
   tbb::flow::make_edge(targets, rhs);
-  Node& write = g.add(&t.write_ms, [this] {
+  Node& write = g.add("write-back", &t.write_ms, [this] {
     auto& u = *graph_;
     tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, system_->free_count(), kRowGrain), [&](const auto& range) {
       for (Eigen::Index row = range.begin(); row != range.end(); ++row) {
@@ -188,11 +197,12 @@ Deformer::Deformer(Mesh rest, EditConstraints constraints, DeformerOptions optio
       }
     });
   });
-  Node& solve = g.add(&t.solve_ms, [this] { graph_->coordinates.solve(system_->factor()); });
+  Node& solve = g.add("solve", &t.solve_ms, [this] { graph_->coordinates.solve(system_->factor()); });
   tbb::flow::make_edge(rhs, solve);
   tbb::flow::make_edge(solve, write);
   edited_.resize(handle_count());
   if (options_.prepare_refinement) {
+    stage.emplace("refinement set-up", "set-up");
     report("preparing the as-rigid-as-possible refinement");
     prepare_refinement();
   }
@@ -204,11 +214,11 @@ void Deformer::prepare_refinement() {
   auto& g = *graph_;
   std::vector<Node*> chain;
   // Each stage keeps its own time (RefinementTimings); the graph adds none.
-  chain.push_back(&g.add(nullptr, [this] { refinement_->assemble(); }));
-  chain.push_back(&g.add(nullptr, [this] { refinement_->solve(); }));
-  chain.push_back(&g.add(nullptr, [this] { refinement_->mix(); }));
-  chain.push_back(&g.add(nullptr, [this] { refinement_->fit(); }));
-  chain.push_back(&g.add(nullptr, [this] { refinement_->finish(*graph_->refined); }));
+  chain.push_back(&g.add("refinement right-hand side", nullptr, [this] { refinement_->assemble(); }));
+  chain.push_back(&g.add("refinement solve", nullptr, [this] { refinement_->solve(); }));
+  chain.push_back(&g.add("refinement acceleration", nullptr, [this] { refinement_->mix(); }));
+  chain.push_back(&g.add("refinement rotations", nullptr, [this] { refinement_->fit(); }));
+  chain.push_back(&g.add("refinement write-back", nullptr, [this] { refinement_->finish(*graph_->refined); }));
   tbb::flow::make_edge(g.refine_start, *chain.front());
   for (std::size_t k = 1; k < chain.size(); ++k) tbb::flow::make_edge(*chain[k - 1], *chain[k]);
 }
@@ -263,6 +273,7 @@ void Deformer::deform(std::span<const HandleTransform> transforms, Eigen::Matrix
     throw std::invalid_argument("deform: " + std::to_string(transforms.size()) + " transforms for " +
                                 std::to_string(handle_count()) + " handles");
   }
+  const trace::Scope traced("update", "update");
   const auto start = Clock::now();
   positions.resize(rest_.vertex_count(), 3);
   last_update_ = UpdateTimings{};
@@ -334,12 +345,14 @@ int Deformer::refine(Eigen::MatrixXd& positions, int max_iterations) {
   }
   if (!refinement_) prepare_refinement();
   if (refinement_pending_) {
+    const trace::Scope traced("refinement start", "refinement");
     begin_refinement(positions);
     refinement_pending_ = false;
   }
   int iterations = 0;
   graph_->refined = &positions;
   while (iterations < max_iterations && !refinement_->status().converged) {
+    const trace::Scope traced("refinement iteration", "refinement", refinement_->status().iterations + 1);
     const auto start = Clock::now();
     update_arena_.execute([this] {
       graph_->refine_start.try_put(Message());

@@ -6,6 +6,7 @@
 
 #include "hdeform/atomic_file.h"
 #include "hdeform/errors.h"
+#include "hdeform/trace.h"
 #include "text_scan.h"
 
 namespace hdeform {
@@ -152,7 +153,10 @@ Mesh parse_obj(const std::filesystem::path& path, std::string_view content) {
   return mesh;
 }
 
-Mesh read_obj(const std::filesystem::path& path) { return parse_obj(path, detail::read_text_file(path)); }
+Mesh read_obj(const std::filesystem::path& path) {
+  const trace::Scope traced("read OBJ", "set-up");
+  return parse_obj(path, detail::read_text_file(path));
+}
 
 void write_obj(const std::filesystem::path& path, const Mesh& mesh) {
   std::string text;

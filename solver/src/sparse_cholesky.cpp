@@ -10,6 +10,7 @@
 #include <string>
 
 #include "hdeform/errors.h"
+#include "hdeform/trace.h"
 
 #ifdef HDEFORM_WITH_CHOLMOD
 #include <Eigen/CholmodSupport>
@@ -302,17 +303,27 @@ void SparseCholesky::solve_block(double* block, int columns, int stride) const {
   for (int first = 0; first < columns; first += kMaxKernelColumns) {
     const Sweeps& sweeps = kSweeps[std::min(kMaxKernelColumns, columns - first) - 1];
     double* y = block + first;
-    auto each_subtree = [&](auto&& sweep) {
+    // Each sweep of each part is an event of the trace, on the thread that ran it.
+    auto each_subtree = [&](const char* name, auto&& sweep) {
       if (subtrees_.empty()) return;
-      tbb::parallel_for(std::size_t{0}, subtrees_.size(), [&](std::size_t part) { sweep(subtrees_[part]); }, tbb::static_partitioner());
+      tbb::parallel_for(
+          std::size_t{0}, subtrees_.size(),
+          [&](std::size_t part) {
+            const trace::Scope traced(name, "solve", static_cast<std::int64_t>(part));
+            sweep(subtrees_[part]);
+          },
+          tbb::static_partitioner());
     };
     auto backward = [&](std::span<const int> part) {
       sweeps.backward(lower_.begin.data(), lower_.end.data(), lower_.row.data(), lower_.value.data(), part, y, stride);
     };
-    each_subtree([&](const std::vector<int>& part) { sweeps.forward(upper_, part, y, stride); });
-    sweeps.forward(upper_, top_, y, stride);
-    backward(top_);
-    each_subtree([&](const std::vector<int>& part) { backward(part); });
+    each_subtree("forward sweep, subtree", [&](const std::vector<int>& part) { sweeps.forward(upper_, part, y, stride); });
+    {
+      const trace::Scope traced("forward and backward sweeps, top", "solve");
+      sweeps.forward(upper_, top_, y, stride);
+      backward(top_);
+    }
+    each_subtree("backward sweep, subtree", [&](const std::vector<int>& part) { backward(part); });
   }
 }
 

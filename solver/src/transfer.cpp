@@ -3,6 +3,7 @@
 #include <Eigen/Eigenvalues>
 #include <Eigen/SVD>
 #include <chrono>
+#include <optional>
 
 #include <tbb/parallel_for.h>
 
@@ -12,6 +13,7 @@
 #include "hdeform/deformation_gradient.h"
 #include "hdeform/dirichlet_system.h"
 #include "hdeform/errors.h"
+#include "hdeform/trace.h"
 #include "hdeform/harmonic_coordinates.h"
 #include "hdeform/laplacian.h"
 #include "hdeform/poisson.h"
@@ -156,6 +158,7 @@ DeformationTransfer::DeformationTransfer(Mesh source_rest, Mesh target_rest, Mar
 
   // The Poisson system: the first marker of each connected component pinned.
   report("factoring the target's Poisson system");
+  const trace::Scope traced("target Poisson system", "set-up");
   auto reconstruction_start = Clock::now();
   detail::DisjointSets components(static_cast<std::size_t>(target_rest_.vertex_count()));
   for (Eigen::Index t = 0; t < target_rest_.triangle_count(); ++t) {
@@ -214,18 +217,23 @@ void DeformationTransfer::setup_correspondence(const ProgressCallback& progress)
     return barycenter_values(harmonic_coordinates(*system, partition, markers), mesh.triangles);
   };
   auto start = Clock::now();
+  std::optional<trace::Scope> traced;
+  traced.emplace("source harmonic coordinates", "set-up");
   const Eigen::MatrixXd source_coordinates = coordinates(source_rest_, cotangent_weights(source_rest_), markers_.source, "source");
   setup_.source_coordinates_ms = milliseconds_since(start);
   start = Clock::now();
+  traced.emplace("target harmonic coordinates", "set-up");
   const Eigen::MatrixXd target_coordinates = coordinates(target_rest_, target_weights_, markers_.target, "target");
   setup_.target_coordinates_ms = milliseconds_since(start);
 
   report("matching triangles");
   start = Clock::now();
+  traced.emplace("matching", "set-up");
   match_ = match_triangles(target_coordinates, source_coordinates, options_.top_n);
   mismatched_.resize(match_.source.size());
   for (std::size_t t = 0; t < mismatched_.size(); ++t) mismatched_[t] = !(match_.distance[t] <= options_.mismatch_threshold);
   setup_.matching_ms = milliseconds_since(start);
+  traced.emplace("mismatch fill system", "set-up");
 
   const std::size_t mismatches = mismatch_count();
   if (mismatches == 0) return;
@@ -265,6 +273,7 @@ void DeformationTransfer::setup_correspondence(const ProgressCallback& progress)
 }
 
 void DeformationTransfer::setup_interpolation() {
+  const trace::Scope traced("marker fields", "set-up");
   const auto start = Clock::now();
   marker_fields_ = std::make_unique<MarkerFields>();
   auto& fields = *marker_fields_;
@@ -309,10 +318,12 @@ void DeformationTransfer::transfer(const Eigen::MatrixXd& source_pose, Eigen::Ma
                      std::to_string(source_rest_.vertex_count()));
   }
   if (!source_pose.allFinite()) throw InputError("the pose has a non-finite coordinate");
+  const trace::Scope traced_pose("pose", "transfer");
   const auto start = Clock::now();
   last_pose_ = TransferPoseTimings{};
   auto stage = Clock::now();
   if (options_.method == TransferMethod::Correspondence) {
+    const trace::Scope traced("gradients and mismatch fill", "transfer");
     deformation_gradients(source_rest_, source_pose, source_gradients_);
     tbb::parallel_for(std::size_t{0}, target_maps_.size(), [&](std::size_t t) {
       if (!mismatched_[t]) target_maps_[t] = source_gradients_[static_cast<std::size_t>(match_.source[t])];
@@ -325,6 +336,7 @@ void DeformationTransfer::transfer(const Eigen::MatrixXd& source_pose, Eigen::Ma
     interpolate_marker_fields(source_pose);
   }
   stage = Clock::now();
+  const trace::Scope traced("reconstruction and placement", "transfer");
   reconstruct_and_place(source_pose, target_positions);
   last_pose_.reconstruction_ms = milliseconds_since(stage);
   last_pose_.total_ms = milliseconds_since(start);

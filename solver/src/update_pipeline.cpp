@@ -2,13 +2,18 @@
 
 #include <chrono>
 
+#include "hdeform/trace.h"
+
 namespace hdeform {
 
 UpdatePipeline::UpdatePipeline(Deformer& deformer, Publish publish) : deformer_(deformer), publish_(std::move(publish)) {
   pending_.reserve(deformer.handle_count());
   current_.reserve(deformer.handle_count());
   positions_ = deformer.rest().positions;
-  thread_ = std::thread([this] { run(); });
+  thread_ = std::thread([this] {
+    trace::name_thread("solver");
+    run();
+  });
 }
 
 UpdatePipeline::~UpdatePipeline() {
@@ -28,6 +33,7 @@ std::uint64_t UpdatePipeline::submit(std::span<const HandleTransform> transforms
     pending_.assign(transforms.begin(), transforms.end());
     if (has_pending_) ++superseded_;
     has_pending_ = true;
+    trace::counter("requests waiting", 1.0);
     last_submit_ = std::chrono::steady_clock::now();
     refined_out_ = !refine_;
     request = pending_request_ = ++submitted_;
@@ -60,6 +66,7 @@ void UpdatePipeline::run() {
       if (has_pending_) {
         std::swap(current_, pending_);
         has_pending_ = false;
+        trace::counter("requests waiting", 0.0);
         request = pending_request_;
         answered_request_ = request;
         update = true;
@@ -72,6 +79,7 @@ void UpdatePipeline::run() {
       RefinementStatus status;
       bool converged = true;
       if (update) {
+        const trace::Scope traced("request", "pipeline", static_cast<std::int64_t>(request));
         deformer_.deform(current_, positions_);
       } else {
         deformer_.refine(positions_, 1);
@@ -79,7 +87,10 @@ void UpdatePipeline::run() {
         converged = status.converged;
       }
       const double elapsed = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-      publish_(Result{positions_, request, elapsed, status});
+      {
+        const trace::Scope traced("publish", "pipeline");
+        publish_(Result{positions_, request, elapsed, status});
+      }
       std::lock_guard lock(mutex_);
       if (update) {
         ++finished_;

@@ -21,6 +21,7 @@ class FrameSlots {
     VkCommandBuffer commands = VK_NULL_HANDLE;
     VkFence fence = VK_NULL_HANDLE;
     VkSemaphore image_available = VK_NULL_HANDLE;
+    std::uint64_t frame = 0;  // the last frame submitted from this slot
   };
 
   FrameSlots(const VulkanContext& context, uint32_t count = kFramesInFlight);
@@ -48,6 +49,16 @@ class FrameSlots {
   void enable_completion_times();
   std::vector<Completion> take_completions();
 
+  // The device's own time for each finished frame (timestamp queries at the start and end of its
+  // commands), where the device has timestamps; also in the trace, on a "device" track, ending
+  // when the frame was seen finished. Frames in finishing order.
+  struct DeviceTime {
+    std::uint64_t frame;
+    double milliseconds;
+  };
+  bool has_device_times() const { return queries_ != VK_NULL_HANDLE; }
+  std::vector<DeviceTime> take_device_times();
+
  private:
   const VulkanContext& context_;
   std::vector<Slot> slots_;
@@ -59,6 +70,10 @@ class FrameSlots {
   std::condition_variable submitted_signal_;
   std::vector<Completion> completions_;
   bool stopping_ = false;
+  VkQueryPool queries_ = VK_NULL_HANDLE;  // two timestamps per slot
+  double timestamp_ns_ = 0.0;             // nanoseconds per timestamp tick
+  std::vector<DeviceTime> device_times_;  // render thread only
+  void read_device_time(const Slot& slot);
 };
 
 }  // namespace hdeform::engine
