@@ -474,8 +474,8 @@ TEST(Refinement, ThePapersMultiTurnTwistKeepsItsTurns) {
     // The turn of this vertex about z as a unit complex number, summed per level.
     const std::complex<double> turn = std::complex<double>(now.x(), now.y()) / std::complex<double>(rest.x(), rest.y());
     ASSERT_GT(std::abs(turn), 0.1) << "vertex " << v << " fell onto the axis";
-    auto& direction = level_direction[shape.mesh.positions(v, 2)];
-    direction += Eigen::Vector2d(turn.real(), turn.imag()) / std::abs(turn);
+    auto [level, added] = level_direction.try_emplace(shape.mesh.positions(v, 2), Eigen::Vector2d::Zero());
+    level->second += Eigen::Vector2d(turn.real(), turn.imag()) / std::abs(turn);
   }
   ASSERT_GT(level_direction.size(), 20u);
   std::vector<double> angles;
