@@ -30,13 +30,13 @@ void for_each_chunk(std::size_t items, Body body) {
 }
 
 // Rotation fits: Newton steps from the last fit, which moves little. For the paper's result, whose
-// energy is reported and decides where an edit starts: one from the last edit's fit to it (a drag
-// step; its energy comes out within 1e-10 of the converged fit's on buddha-206k after one), up to eight from
-// the field's rotations in a first edit. Within an iteration one: each step raises the fit, so the
-// energy still falls, and the rotations converge with the positions (one step or two per
+// energy is reported and decides where an edit starts: one from the last edit's fit to it (on a
+// buddha-206k drag step its energy comes out within 1e-10 of the converged fit's), up to eight
+// from the field's rotations in a first edit. Within an iteration one: each step raises the fit,
+// so the energy still falls, and the rotations converge with the positions (one step or two per
 // iteration take as many iterations to converge: buddha-206k, cylinder).
 constexpr double kRotationTolerance = 1e-7;
-constexpr int kPaperFitSteps = 1;  // warm: from the last edit's fit
+constexpr int kPaperFitSteps = 1;       // warm: from the last edit's fit
 constexpr int kFirstPaperFitSteps = 8;  // cold: from the field's rotations
 constexpr int kIterationSteps = 1;
 
