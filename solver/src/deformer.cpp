@@ -82,9 +82,11 @@ Deformer::Deformer(Mesh rest, EditConstraints constraints, DeformerOptions optio
   report("building the cotangent Laplacian");
   auto start = Clock::now();
   std::optional<trace::Scope> stage;
-  stage.emplace("Laplacian, inspection, partition", "set-up");
+  stage.emplace("cotangent weights", "set-up");
   weights_ = cotangent_weights(rest_);
+  stage.emplace("mesh inspection", "set-up");
   inspection_ = inspect_mesh(rest_, weights_);
+  stage.emplace("vertex partition", "set-up");
   partition_ = partition_vertices(rest_, weights_, constraints_);
   if (!partition_.handles_without_sink.empty()) {
     const int h = partition_.handles_without_sink.front() + 1;
@@ -93,6 +95,7 @@ Deformer::Deformer(Mesh rest, EditConstraints constraints, DeformerOptions optio
                      "(value 0) as well as the handle (value 1), or it is 1 everywhere and undefined as a guide. Fix some "
                      "vertices there, or give a region of interest (the vertices outside it stay fixed).");
   }
+  stage.emplace("Laplacian", "set-up");
   const auto laplacian = cotangent_laplacian(rest_, weights_);
   timings_.laplacian_ms = milliseconds_since(start);
 

@@ -105,7 +105,14 @@ struct ExposeFactor : Solver {
 void factor_with_eigen(const Eigen::SparseMatrix<double>& matrix, Eigen::SparseMatrix<double>& lower,
                        std::vector<int>& factor_row) {
   ExposeFactor<Eigen::SimplicialLLT<Eigen::SparseMatrix<double>, Eigen::Lower, Eigen::AMDOrdering<int>>> solver;
-  solver.compute(matrix);
+  {
+    const trace::Scope traced("analysis (ordering, elimination tree)", "set-up");
+    solver.analyzePattern(matrix);
+  }
+  {
+    const trace::Scope traced("numeric factorization", "set-up");
+    solver.factorize(matrix);
+  }
   if (solver.info() != Eigen::Success) {
     throw SolveError("the Laplacian system is not positive definite (Eigen SimplicialLLT failed)");
   }
@@ -123,7 +130,14 @@ void factor_with_cholmod(const Eigen::SparseMatrix<double>& matrix, Eigen::Spars
                          std::vector<int>& factor_row) {
   CholmodFactorAccess solver;
   solver.cholmod().print = 0;  // failures are reported as SolveError, not printed by CHOLMOD
-  solver.compute(matrix);
+  {
+    const trace::Scope traced("analysis (ordering, supernodes)", "set-up");
+    solver.analyzePattern(matrix);
+  }
+  {
+    const trace::Scope traced("numeric factorization", "set-up");
+    solver.factorize(matrix);
+  }
   if (solver.info() != Eigen::Success) {
     throw SolveError("the Laplacian system is not positive definite (CHOLMOD supernodal LLT failed)");
   }
