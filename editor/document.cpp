@@ -247,7 +247,11 @@ void Document::commit() {
   history_index_ = history_.size() - 1;
 }
 
+// A change not yet committed (a value still being typed, a field dragged) is what the user
+// sees: undo first records it, so that it can be redone, and so that it goes back to the step
+// before it rather than to an older one.
 bool Document::undo() {
+  commit();
   if (!can_undo()) return false;
   const Snapshot& snapshot = history_[--history_index_];
   applied_ = snapshot.session.applied;
@@ -257,7 +261,10 @@ bool Document::undo() {
   return true;
 }
 
+// After an uncommitted change the redo branch is gone (commit() truncates it): redo never
+// replaces what the user sees with an older state.
 bool Document::redo() {
+  commit();
   if (!can_redo()) return false;
   const Snapshot& snapshot = history_[++history_index_];
   applied_ = snapshot.session.applied;

@@ -81,6 +81,8 @@ class Document {
   void commit();
   bool can_undo() const { return history_index_ > 0; }
   bool can_redo() const { return history_index_ + 1 < history_.size(); }
+  // Both first commit a pending change (so it is never lost: undo goes to the step before it,
+  // and redo finds no branch to replace it with).
   bool undo();
   bool redo();
   // Whether the state differs from the one last marked saved.

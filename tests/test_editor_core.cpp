@@ -140,6 +140,38 @@ TEST_F(DocumentTest, PaintingKeepsFixedAndHandlesExclusiveAndUndoes) {
   EXPECT_EQ(session.current.fixed.size() + fixed.size() + handle.size(), static_cast<std::size_t>(shape.mesh.vertex_count()));
 }
 
+// A value typed into the panel is applied as the user types, and committed when the field is
+// left; undo and redo before that must neither drop it nor bring back an older pose.
+TEST_F(DocumentTest, AnUncommittedChangeIsNeverLostToUndoOrRedo) {
+  document->paint(shape.demo_constraints.fixed, cli::Layer::Fixed, false);
+  document->paint(shape.demo_constraints.handles[0], cli::Layer::Handle, false);
+  document->commit();
+  const Eigen::Vector3d twist_axis = Eigen::Vector3d::UnitZ();
+  document->set_pose(0, twist_axis, 2.0, 1.0, Eigen::Vector3d::Zero());  // an older twist
+  document->commit();
+  ASSERT_TRUE(document->undo());
+  EXPECT_EQ(document->pose(0).angle, 0.0);
+  const Eigen::Vector3d typed(10.0, 0.0, 0.0);
+  document->set_pose(0, twist_axis, 0.0, 1.0, typed);  // Move X = 10, still in the field
+  EXPECT_FALSE(document->redo());                      // the twist is not resurrected over it
+  EXPECT_EQ(document->pose(0).shift, typed);
+  EXPECT_TRUE(document->modified());
+  ASSERT_TRUE(document->undo());  // back to the step before the typed move
+  EXPECT_EQ(document->pose(0).shift, Eigen::Vector3d::Zero());
+  EXPECT_EQ(document->pose(0).angle, 0.0);
+  ASSERT_TRUE(document->redo());  // and the typed move again, not the twist
+  EXPECT_EQ(document->pose(0).shift, typed);
+  EXPECT_EQ(document->pose(0).angle, 0.0);
+  EXPECT_FALSE(document->redo());
+  // The first change of a fresh document is undoable too.
+  cli::Session session;
+  session.mesh = "shape:cactus:24";
+  cli::Document fresh(session, shape.mesh, DeformerOptions{}, {});
+  fresh.paint(shape.demo_constraints.fixed, cli::Layer::Fixed, false);
+  ASSERT_TRUE(fresh.undo());
+  EXPECT_TRUE(fresh.session().current.fixed.empty());
+}
+
 TEST_F(DocumentTest, TheResultIsTheBatchReplayOfItsSessionAndApplyChainsStages) {
   document->paint(shape.demo_constraints.fixed, cli::Layer::Fixed, false);
   document->paint(shape.demo_constraints.handles[0], cli::Layer::Handle, false);

@@ -21,6 +21,8 @@
 #include "cli_support.h"
 #include "document.h"
 #include "gui/gizmo.h"
+#include "gui/input_queue.h"
+#include "gui/pose_editor.h"
 #include "gui/profiler_panel.h"
 #include "gui/recovery.h"
 #include "gui/transfer_view.h"
@@ -136,7 +138,7 @@ class EditorApp {
     create_renderer();
     start_from_options();
     while (!quit_) {
-      const bool busy = dragging_ || loading_ || benchmark_active_ || screenshot_requested_ || (transfer_ && transfer_->busy()) ||
+      const bool busy = !input_.empty() || dragging_ || loading_ || benchmark_active_ || screenshot_requested_ || (transfer_ && transfer_->busy()) ||
                         (document_ && (document_->solver_state() == Document::SolverState::Building ||
                                        document_->last_published_request() != shown_tag_));
       if (busy) glfwPollEvents();
@@ -193,21 +195,40 @@ class EditorApp {
     window_ = glfwCreateWindow(static_cast<int>(width), static_cast<int>(height), "hdeform", nullptr, nullptr);
     if (window_ == nullptr) throw engine::RenderError("cannot create a window");
     glfwSetWindowUserPointer(window_, this);
-    // Our callbacks first; ImGui's backend chains to them.
-    glfwSetCursorPosCallback(window_, [](GLFWwindow* window, double, double) {
+    // Input goes to a queue that hands ImGui one frame's worth at a time (input_queue.h); ImGui's
+    // backend installs no callbacks of its own.
+    glfwSetCursorPosCallback(window_, [](GLFWwindow* window, double x, double y) {
       trace::instant("pointer moved", "input");
-      static_cast<EditorApp*>(glfwGetWindowUserPointer(window))->last_input_ = Clock::now();
+      queue_input(window, {.kind = InputEvent::Kind::Move, .x = x, .y = y});
     });
-    // Shortcuts are taken from the key events themselves, not from ImGui's per-frame key state, so
-    // that a press and release between two frames still counts.
     glfwSetKeyCallback(window_, [](GLFWwindow* window, int key, int, int action, int mods) {
       trace::instant("key", "input");
-      if (action == GLFW_PRESS) static_cast<EditorApp*>(glfwGetWindowUserPointer(window))->queued_keys_.push_back({key, mods});
+      queue_input(window, {.kind = InputEvent::Kind::Key, .code = key, .action = action, .mods = mods});
     });
+    glfwSetCharCallback(window_, [](GLFWwindow* window, unsigned character) {
+      queue_input(window, {.kind = InputEvent::Kind::Character, .character = character});
+    });
+    glfwSetMouseButtonCallback(window_, [](GLFWwindow* window, int button, int action, int mods) {
+      trace::instant("button", "input");
+      queue_input(window, {.kind = InputEvent::Kind::Button, .code = button, .action = action, .mods = mods});
+    });
+    glfwSetScrollCallback(window_, [](GLFWwindow* window, double x, double y) {
+      trace::instant("scroll", "input");
+      queue_input(window, {.kind = InputEvent::Kind::Scroll, .x = x, .y = y});
+    });
+    glfwSetWindowFocusCallback(window_, ImGui_ImplGlfw_WindowFocusCallback);
+    glfwSetCursorEnterCallback(window_, ImGui_ImplGlfw_CursorEnterCallback);
     glfwSetDropCallback(window_, [](GLFWwindow* window, int count, const char** paths) {
       auto* app = static_cast<EditorApp*>(glfwGetWindowUserPointer(window));
       app->dropped_paths_.assign(paths, paths + count);
     });
+  }
+
+  static void queue_input(GLFWwindow* window, InputEvent event) {
+    event.time = Clock::now();
+    auto* app = static_cast<EditorApp*>(glfwGetWindowUserPointer(window));
+    app->input_.push(event);
+    app->last_input_ = event.time;
   }
 
   void create_renderer() {
@@ -243,7 +264,7 @@ class EditorApp {
     imgui_started_ = true;
     ImGui::GetIO().IniFilename = nullptr;  // no imgui.ini beside the user's files
     ImGui::StyleColorsDark();
-    ImGui_ImplGlfw_InitForVulkan(window_, true);
+    ImGui_ImplGlfw_InitForVulkan(window_, false);
     const VkDescriptorPoolSize pool_size{VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 16};
     VkDescriptorPoolCreateInfo pool_info{VK_STRUCTURE_TYPE_DESCRIPTOR_POOL_CREATE_INFO};
     pool_info.flags = VK_DESCRIPTOR_POOL_CREATE_FREE_DESCRIPTOR_SET_BIT;
@@ -573,8 +594,11 @@ class EditorApp {
   }
 
   void step() {
-    frame_keys_.swap(queued_keys_);
-    queued_keys_.clear();
+    const std::vector<InputEvent> events = input_.take_frame();
+    frame_keys_.clear();
+    for (const InputEvent& event : events) {
+      if (event.kind == InputEvent::Kind::Key && event.action == GLFW_PRESS) frame_keys_.push_back({event.code, event.mods});
+    }
     finish_load();
     if (!dropped_paths_.empty()) {
       if (mode_ == Mode::Transfer) transfer_->drop(dropped_paths_, ImGui::GetIO().MousePos);
@@ -600,6 +624,7 @@ class EditorApp {
 
     ImGui_ImplVulkan_NewFrame();
     ImGui_ImplGlfw_NewFrame();
+    imgui_input_.apply(events);
     ImGui::NewFrame();
     draw_panel();
     take_profile();
@@ -905,24 +930,14 @@ class EditorApp {
     const int h = document_->active_handle();
     if (document_->handle_count() == 0 || document_->handle_size(h) == 0) return;
     const HandleTransform& pose = document_->pose(h);
-    float shift[3] = {static_cast<float>(pose.shift.x()), static_cast<float>(pose.shift.y()), static_cast<float>(pose.shift.z())};
-    float axis[3] = {static_cast<float>(pose.axis.x()), static_cast<float>(pose.axis.y()), static_cast<float>(pose.axis.z())};
-    float degrees = static_cast<float>(pose.angle * 180.0 / std::numbers::pi);
-    float scale = static_cast<float>(pose.scale);
-    bool changed = false;
-    const float step = 0.002f * scene_size();
-    changed |= ImGui::DragFloat3("Move", shift, step);
-    changed |= ImGui::DragFloat3("Axis", axis, 0.01f, -1.0f, 1.0f);
-    changed |= ImGui::DragFloat("Angle°", &degrees, 0.5f);  // any number of turns
-    changed |= ImGui::DragFloat("Scale", &scale, 0.005f, 0.05f, 20.0f);
-    if (changed) {
-      Eigen::Vector3d new_axis(axis[0], axis[1], axis[2]);
-      if (new_axis.norm() < 1e-6) new_axis = pose.axis;
-      document_->set_pose(h, new_axis.normalized(), degrees * std::numbers::pi / 180.0, std::max(scale, 0.05f),
-                          Eigen::Vector3d(shift[0], shift[1], shift[2]));
+    PoseFields fields{pose.shift, pose.axis, pose.angle * 180.0 / std::numbers::pi, pose.scale};
+    const PoseFieldsEdit edit = pose_fields(fields, 0.002f * scene_size());
+    if (edit.changed) {
+      document_->set_pose(h, fields.axis, fields.degrees * std::numbers::pi / 180.0, fields.scale, fields.shift);
       note_pose_input(Clock::now());
+      recovery_dirty_ = true;
     }
-    if (ImGui::IsItemDeactivatedAfterEdit() || (changed && !ImGui::IsAnyItemActive())) commit_action();
+    if (edit.finished) commit_action();
   }
 
   void draw_dialogs() {
@@ -1515,7 +1530,8 @@ class EditorApp {
     int key;
     int mods;
   };
-  std::vector<KeyPress> queued_keys_;  // from the key callback, until the next frame
+  InputQueue input_;  // from the window's callbacks, a frame's worth at a time
+  ImGuiInputFeed imgui_input_;
   std::vector<KeyPress> frame_keys_;   // this frame's
 
   bool show_help_ = false;
