@@ -1,8 +1,11 @@
 #include <chrono>
+#include <fstream>
 #include <random>
 #include <thread>
 
 #include "document.h"
+#include "gui/recovery.h"
+#include "gui/restore_prompt.h"
 #include "hdeform/engine/geometry_exchange.h"
 #include "hdeform/errors.h"
 #include "hdeform/shapes.h"
@@ -194,6 +197,9 @@ TEST_F(DocumentTest, TheResultIsTheBatchReplayOfItsSessionAndApplyChainsStages) 
   document->set_pose(0, Eigen::Vector3d::UnitX(), 0.5, 1.0, Eigen::Vector3d::Zero());
   const Eigen::MatrixXd second = document->result();
   EXPECT_EQ(second, cli::replay_session(document->session(), shape.mesh, {}));
+  ASSERT_TRUE(document->undo());  // the pose set after apply (uncommitted, so undo records it first)
+  EXPECT_EQ(document->pose(0).angle, 0.0);
+  EXPECT_EQ(document->rest().positions, result);
   ASSERT_TRUE(document->undo());  // back before apply
   EXPECT_EQ(document->rest().positions, shape.mesh.positions);
 }
@@ -276,6 +282,55 @@ TEST_F(DocumentTest, AFailedSetUpKeepsThePreviousResultOnScreen) {
   document->wait_until_ready();
   EXPECT_EQ(document->solver_state(), cli::Document::SolverState::Ready);
   EXPECT_EQ(document->result(), shown);
+}
+
+TEST(Recovery, ThePromptSaysWhatTheFileHoldsAndWhen) {
+  cli::Session session;
+  session.mesh = "/meshes/cactus.obj";
+  EXPECT_EQ(cli::describe_session(session), "no handle, 0 fixed vertices");
+  session.current.fixed = {1, 2, 3};
+  session.current.handles.push_back({{4}, HandleTransform{}});
+  EXPECT_EQ(cli::describe_session(session), "1 handle (1 vertex, at rest), 3 fixed vertices");
+  session.current.handles[0].transform = HandleTransform::about_pivot(Eigen::Vector3d::UnitZ(), Eigen::Vector3d::Zero(), 0.0, 1.0, Eigen::Vector3d(0.1, 0.0, 0.0));
+  session.current.handles.push_back({{5, 6}, HandleTransform{}});
+  session.current.region_of_interest = {1, 2, 3, 4, 5, 6, 7};
+  session.applied.push_back(session.current);
+  EXPECT_EQ(cli::describe_session(session),
+            "handle 1 (1 vertex, moved), handle 2 (2 vertices, at rest), 3 fixed vertices, a region of interest of 7 vertices, 1 applied stage");
+
+  const auto now = std::filesystem::file_time_type::clock::now();
+  EXPECT_TRUE(cli::describe_age(now - std::chrono::seconds(20), now).ends_with(", less than a minute ago"));
+  EXPECT_TRUE(cli::describe_age(now - std::chrono::minutes(12), now).ends_with(", 12 minutes ago"));
+  EXPECT_TRUE(cli::describe_age(now - std::chrono::hours(5), now).ends_with(", 5 hours ago"));
+  const std::string days = cli::describe_age(now - std::chrono::hours(24 * 3), now);
+  EXPECT_TRUE(days.ends_with(", 3 days ago")) << days;
+  EXPECT_EQ(days.substr(4, 1), "-") << "older than a day: the date too (" << days << ")";
+
+  test::TempDir dir;
+  const auto recovery = dir.file("recovery.json");
+  cli::write_session(recovery, session);
+  const cli::RestoreOffer same = cli::make_restore_offer(recovery, "/meshes/cactus.obj");
+  EXPECT_EQ(same.mesh, session.mesh);
+  EXPECT_FALSE(same.conflicts());
+  EXPECT_TRUE(same.written.ends_with("less than a minute ago"));
+  EXPECT_FALSE(cli::make_restore_offer(recovery, "").conflicts());
+  EXPECT_TRUE(cli::make_restore_offer(recovery, "/meshes/bar.obj").conflicts());
+  EXPECT_TRUE(cli::make_restore_offer(recovery, "shape:bar").conflicts());
+
+  // Set aside, it keeps its contents under a new name, and a second one does not overwrite it.
+  const auto first = cli::set_recovery_aside(recovery);
+  EXPECT_FALSE(std::filesystem::exists(recovery));
+  EXPECT_EQ(cli::read_session(first), session);
+  cli::write_session(recovery, cli::Session{"shape:bar", {}, {}, 0});
+  std::filesystem::last_write_time(recovery, std::filesystem::last_write_time(first));  // the same second
+  const auto second = cli::set_recovery_aside(recovery);
+  EXPECT_NE(second, first);
+  EXPECT_EQ(cli::read_session(first), session);
+  EXPECT_EQ(cli::read_session(second).mesh, "shape:bar");
+  EXPECT_EQ(first.parent_path(), recovery.parent_path());
+
+  std::ofstream(recovery) << "{ not json";
+  EXPECT_THROW(cli::make_restore_offer(recovery, ""), InputError);
 }
 
 TEST(MarkerEditor, PairsAddMoveRemoveWithUndoAndOneMarkerPerVertex) {

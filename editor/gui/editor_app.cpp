@@ -7,6 +7,8 @@
 #include <backends/imgui_impl_vulkan.h>
 
 #include <algorithm>
+#include <array>
+#include <csignal>
 #include <chrono>
 #include <cmath>
 #include <deque>
@@ -25,6 +27,7 @@
 #include "gui/pose_editor.h"
 #include "gui/profiler_panel.h"
 #include "gui/recovery.h"
+#include "gui/restore_prompt.h"
 #include "gui/transfer_view.h"
 #include "gui/widgets.h"
 #include "hdeform/atomic_file.h"
@@ -126,6 +129,33 @@ std::string percentile_text(std::vector<double> values) {
   return text;
 }
 
+// SIGTERM, SIGINT and SIGHUP ask the editor to write its recovery file and quit: the next start
+// offers it. The handler only records the signal; the frame loop (which wakes at least every
+// 0.25 s) acts on it.
+volatile std::sig_atomic_t quit_signal = 0;
+extern "C" void record_quit_signal(int signal) { quit_signal = signal; }
+
+class QuitSignals {
+ public:
+  QuitSignals() {
+    quit_signal = 0;
+    struct sigaction action {};
+    action.sa_handler = record_quit_signal;
+    sigemptyset(&action.sa_mask);
+    for (std::size_t k = 0; k < kSignals.size(); ++k) sigaction(kSignals[k], &action, &previous_[k]);
+  }
+  ~QuitSignals() {
+    for (std::size_t k = 0; k < kSignals.size(); ++k) sigaction(kSignals[k], &previous_[k], nullptr);
+  }
+  QuitSignals(const QuitSignals&) = delete;
+  QuitSignals& operator=(const QuitSignals&) = delete;
+  static int received() { return quit_signal; }
+
+ private:
+  static constexpr std::array<int, 3> kSignals{SIGTERM, SIGINT, SIGHUP};
+  std::array<struct sigaction, 3> previous_{};
+};
+
 class EditorApp {
  public:
   explicit EditorApp(const EditorOptions& options) : options_(options) {}
@@ -137,7 +167,12 @@ class EditorApp {
     create_window();
     create_renderer();
     start_from_options();
+    const QuitSignals signals;
     while (!quit_) {
+      if (QuitSignals::received() != 0) {
+        quit_on_signal(QuitSignals::received());
+        break;
+      }
       const bool busy = !input_.empty() || dragging_ || loading_ || benchmark_active_ || screenshot_requested_ || (transfer_ && transfer_->busy()) ||
                         (document_ && (document_->solver_state() == Document::SolverState::Building ||
                                        document_->last_published_request() != shown_tag_));
@@ -162,7 +197,7 @@ class EditorApp {
       }
       if (trace::enabled()) trace::counter("resident memory (MB)", resident_mb());
     }
-    if (recovery_) recovery_->discard();
+    if (recovery_ && !keep_recovery_) recovery_->discard();
     if (!options_.trace.empty()) {
       trace::stop();
       try {
@@ -346,12 +381,56 @@ class EditorApp {
                                                  [](const Session& session) { print_json_line({{"event", "recovery"}, {"digest", session_digest(session)}}); });
     if (std::filesystem::exists(recovery_->path())) {
       if (options_.restore == "yes") return restore_recovery();
-      if (options_.restore == "ask") {
-        show_restore_prompt_ = true;
-        return;
-      }
+      if (options_.restore == "ask") return offer_restore();
       std::error_code ignored;
       std::filesystem::remove(recovery_->path(), ignored);
+    }
+    start_requested_document();
+  }
+
+  void offer_restore() {
+    const std::string requested = !options_.session.empty() ? options_.session : options_.mesh;
+    try {
+      restore_offer_ = make_restore_offer(recovery_->path(), requested);
+      print_json_line({{"event", "restore prompt"},
+                       {"recovery", recovery_->path().string()},
+                       {"mesh", restore_offer_->mesh},
+                       {"holds", restore_offer_->holds},
+                       {"requested", restore_offer_->requested}});
+    } catch (const std::exception& error) {
+      // Nothing to offer, but nothing thrown away either.
+      const std::string reason = error.what();
+      std::string kept;
+      try {
+        kept = set_recovery_aside(recovery_->path()).string();
+      } catch (const std::exception& move_error) {
+        kept = recovery_->path().string() + " (it could not be moved: " + move_error.what() + ")";
+      }
+      error_message_ = "The recovery file could not be read: " + reason + ". It is kept as " + kept + ".";
+      print_json_line({{"event", "error"}, {"message", error_message_}});
+      start_requested_document();
+    }
+  }
+
+  void answer_restore(RestoreChoice choice) {
+    const RestoreOffer offer = *restore_offer_;
+    restore_offer_.reset();
+    if (choice == RestoreChoice::Restore) {
+      if (offer.conflicts()) after_open_note_ = offer.requested + " was not opened (Ctrl+O opens it).";
+      restore_recovery();
+      return;
+    }
+    if (choice == RestoreChoice::OpenRequested) {
+      try {
+        const auto kept = set_recovery_aside(offer.recovery);
+        after_open_note_ = "The recovered session is kept as " + kept.string() + " (Ctrl+O opens it).";
+        print_json_line({{"event", "recovery kept"}, {"path", kept.string()}});
+      } catch (const std::exception& error) {
+        error_message_ = std::string("The recovery file could not be set aside: ") + error.what();
+      }
+    } else {
+      std::error_code ignored;
+      std::filesystem::remove(offer.recovery, ignored);
     }
     start_requested_document();
   }
@@ -368,6 +447,7 @@ class EditorApp {
   // The document the command line asked for.
   void start_requested_document() {
     const EditorOptions options = options_;
+    last_open_request_ = !options.session.empty() ? options.session : options.mesh;
     start_load([options] {
       if (!options.session.empty()) {
         SessionSource source;
@@ -454,6 +534,9 @@ class EditorApp {
     std::lock_guard lock(load_mutex_);
     if (!load_error_.empty()) {
       error_message_ = load_error_;
+      open_failure_ = load_error_;
+      if (!after_open_note_.empty()) status_ = after_open_note_;
+      after_open_note_.clear();
       print_json_line({{"event", "error"}, {"message", load_error_}});
       if (!document_ && (options_.benchmark_drag_seconds > 0.0)) {
         std::cerr << "hdeform: error: " << load_error_ << '\n';
@@ -494,9 +577,11 @@ class EditorApp {
     } else {
       output_path_ = options_.output;
     }
-    std::snprintf(path_buffer_, sizeof path_buffer_, "%s", output_path_.c_str());
     glfwSetWindowTitle(window_, ("hdeform — " + mesh_name_).c_str());
     status_ = "Opened " + mesh_name_;
+    if (!after_open_note_.empty()) status_ += ". " + after_open_note_;
+    after_open_note_.clear();
+    error_message_.clear();
     print_json_line({{"event", "opened"},
                      {"mesh", mesh_name_},
                      {"vertices", rest.vertex_count()},
@@ -518,6 +603,7 @@ class EditorApp {
   }
 
   void open_path(const std::string& path) {
+    last_open_request_ = path;
     if (path.ends_with(".json")) {
       start_load([path] {
         SessionSource source;
@@ -529,7 +615,7 @@ class EditorApp {
     start_load([path, refine = options_.refine] {
       Session session;
       session.current.refine = refine;
-      session.mesh = std::filesystem::absolute(path).lexically_normal().string();
+      session.mesh = path.starts_with("shape:") ? path : std::filesystem::absolute(path).lexically_normal().string();
       return std::pair{session, load_session_mesh(session)};
     });
   }
@@ -782,10 +868,46 @@ class EditorApp {
 
   // ---- the panel ----------------------------------------------------------------------------------
 
+  // The panel: its controls scroll, and below them the status, the error and the live figures
+  // stay in view at any window height.
   void draw_panel() {
     ImGui::SetNextWindowPos(ImVec2(0, 0));
     ImGui::SetNextWindowSize(ImVec2(kPanelWidth, ImGui::GetIO().DisplaySize.y));
     ImGui::Begin("hdeform", nullptr, ImGuiWindowFlags_NoMove | ImGuiWindowFlags_NoResize | ImGuiWindowFlags_NoCollapse);
+    const bool editing = mode_ == Mode::Edit;
+    const float wrap = ImGui::GetContentRegionAvail().x;
+    const auto wrapped_height = [wrap](const std::string& text) { return text.empty() ? 0.0f : ImGui::CalcTextSize(text.c_str(), nullptr, false, wrap).y; };
+    const ImGuiStyle& style = ImGui::GetStyle();
+    const int figure_lines = editing && document_ ? 5 : 0;
+    const float footer = editing ? style.ItemSpacing.y * 4 + style.WindowPadding.y + wrapped_height(status_) + wrapped_height(error_message_) +
+                                       static_cast<float>(figure_lines) * ImGui::GetTextLineHeightWithSpacing()
+                                 : 0.0f;
+    ImGui::BeginChild("controls", ImVec2(0, -footer));
+    draw_controls();
+    ImGui::EndChild();
+    if (editing) draw_footer();
+    ImGui::End();
+  }
+
+  void draw_footer() {
+    ImGui::Separator();
+    if (document_) {
+      if (const DeformerTimings* timings = document_->setup_timings()) ImGui::Text("Factorization: %.1f ms", timings->factor_ms);
+      else ImGui::TextDisabled("Factorization: -");
+      ImGui::Text("Last update: %.2f ms", document_->last_update_ms());
+      ImGui::Text("Frames: %zu per second", frame_times_.size());
+      ImGui::Text("Frame: %s", percentile_text({frame_intervals_.begin(), frame_intervals_.end()}).c_str());
+      ImGui::Text("Input to screen: %s", percentile_text({latencies_.begin(), latencies_.end()}).c_str());
+    }
+    ImGui::TextWrapped("%s", status_.c_str());
+    if (!error_message_.empty()) {
+      ImGui::PushStyleColor(ImGuiCol_Text, ImVec4(1, 0.45f, 0.45f, 1));
+      ImGui::TextWrapped("%s", error_message_.c_str());
+      ImGui::PopStyleColor();
+    }
+  }
+
+  void draw_controls() {
     int mode = mode_ == Mode::Transfer ? 1 : 0;
     ImGui::RadioButton("Edit", &mode, 0);
     ImGui::SameLine();
@@ -794,22 +916,21 @@ class EditorApp {
     ImGui::Separator();
     if (mode_ == Mode::Transfer) {
       transfer_->draw_panel(pressed(GLFW_KEY_ESCAPE));
-      ImGui::End();
       return;
     }
-    ImGui::TextWrapped("%s", mesh_name_.empty() ? "(loading)" : mesh_name_.c_str());
+    ImGui::TextWrapped("%s", !mesh_name_.empty() ? mesh_name_.c_str()
+                                        : loading_      ? "(loading)"
+                                        : restore_offer_ ? "Restore the last session? (the question in the middle)"
+                                                         : "No mesh open: Open... or drop an OBJ file here");
     if (document_) ImGui::Text("%ld vertices, %ld triangles", static_cast<long>(document_->vertex_count()), static_cast<long>(document_->rest().triangle_count()));
-    if (ImGui::Button("Open...")) open_dialog_ = true;
+    if (ImGui::Button("Open...")) request_open();
     ImGui::SameLine();
     if (ImGui::Button("Save")) save(output_path_);
     ImGui::SameLine();
-    if (ImGui::Button("Save as...")) save_dialog_ = true;
+    if (ImGui::Button("Save as...")) request_save_as();
     ImGui::SameLine();
     if (ImGui::Button("Help")) show_help_ = !show_help_;
-    if (!document_) {
-      ImGui::End();
-      return;
-    }
+    if (!document_) return;
 
     ImGui::Separator();
     ImGui::TextDisabled("Tool");
@@ -915,15 +1036,6 @@ class EditorApp {
       ImGui::SetTooltip("On: a frame waits up to %.0f ms for the solve of the newest input (best on a CPU device).\n"
                         "Off: frames never wait; each shows the newest finished solve.", kMaxLatchMs);
     }
-    if (const DeformerTimings* timings = document_->setup_timings()) ImGui::Text("Factorization: %.1f ms", timings->factor_ms);
-    ImGui::Text("Last update: %.2f ms", document_->last_update_ms());
-    ImGui::Text("Frames: %zu per second", frame_times_.size());
-    ImGui::Text("Frame: %s", percentile_text({frame_intervals_.begin(), frame_intervals_.end()}).c_str());
-    ImGui::Text("Input to screen: %s", percentile_text({latencies_.begin(), latencies_.end()}).c_str());
-    ImGui::Separator();
-    ImGui::TextWrapped("%s", status_.c_str());
-    if (!error_message_.empty()) ImGui::TextColored(ImVec4(1, 0.4f, 0.4f, 1), "%s", error_message_.c_str());
-    ImGui::End();
   }
 
   void draw_pose_editor() {
@@ -967,28 +1079,11 @@ class EditorApp {
       ImGui::Text("%c %s  (%.1f s)", spinner[static_cast<int>(busy_for * 8) % 4], what.c_str(), busy_for);
       ImGui::End();
     }
-    if (show_restore_prompt_ && !ImGui::IsPopupOpen("Restore")) {
-      ImGui::OpenPopup("Restore");
-      print_json_line({{"event", "restore prompt"}, {"recovery", recovery_->path().string()}});
+    if (restore_offer_) {
+      const RestoreChoice choice = restore_prompt(*restore_offer_, pressed(GLFW_KEY_ENTER) || pressed(GLFW_KEY_KP_ENTER), pressed(GLFW_KEY_ESCAPE));
+      if (choice != RestoreChoice::Undecided) answer_restore(choice);
     }
-    if (ImGui::BeginPopupModal("Restore", nullptr, ImGuiWindowFlags_AlwaysAutoResize)) {
-      ImGui::Text("The last session did not end cleanly.");
-      ImGui::Text("Restore it from %s?", recovery_->path().string().c_str());
-      if (ImGui::Button("Restore (Enter)") || (pressed(GLFW_KEY_ENTER) || pressed(GLFW_KEY_KP_ENTER))) {
-        show_restore_prompt_ = false;
-        ImGui::CloseCurrentPopup();
-        restore_recovery();
-      }
-      ImGui::SameLine();
-      if (ImGui::Button("Discard (Esc)") || pressed(GLFW_KEY_ESCAPE)) {
-        show_restore_prompt_ = false;
-        ImGui::CloseCurrentPopup();
-        std::error_code ignored;
-        std::filesystem::remove(recovery_->path(), ignored);
-        start_requested_document();
-      }
-      ImGui::EndPopup();
-    }
+    draw_open_failure();
     if (const auto path = path_prompt("Open", open_dialog_, path_buffer_, pressed(GLFW_KEY_ESCAPE))) open_path(*path);
     if (const auto path = path_prompt("Save as", save_dialog_, path_buffer_, pressed(GLFW_KEY_ESCAPE)); path && save(*path)) output_path_ = *path;
     if (quit_dialog_) ImGui::OpenPopup("Quit");
@@ -1002,6 +1097,54 @@ class EditorApp {
       }
       ImGui::EndPopup();
     }
+  }
+
+  // The Open box starts from something that exists: the open mesh, else the folder of the file
+  // last asked for, else the working folder.
+  void request_open() {
+    std::vector<std::filesystem::path> candidates;
+    if (!mesh_name_.empty() && !mesh_name_.starts_with("shape:")) candidates.emplace_back(mesh_name_);
+    if (!last_open_request_.empty() && !last_open_request_.starts_with("shape:")) candidates.push_back(std::filesystem::absolute(last_open_request_).parent_path());
+    candidates.push_back(std::filesystem::current_path());
+    std::string start;
+    for (const auto& candidate : candidates) {
+      std::error_code ignored;
+      if (!std::filesystem::exists(candidate, ignored)) continue;
+      start = candidate.string();
+      if (std::filesystem::is_directory(candidate, ignored) && !start.ends_with('/')) start += '/';
+      break;
+    }
+    std::snprintf(path_buffer_, sizeof path_buffer_, "%s", start.c_str());
+    open_dialog_ = true;
+  }
+
+  void request_save_as() {
+    std::snprintf(path_buffer_, sizeof path_buffer_, "%s", output_path_.c_str());
+    save_dialog_ = true;
+  }
+
+  // A file that could not be opened (from the command line, Open, a drop or a session): the
+  // reason in full, in the window, with the previous document (if any) still open behind it.
+  void draw_open_failure() {
+    if (!open_failure_.empty() && !ImGui::IsPopupOpen("Could not open")) ImGui::OpenPopup("Could not open");
+    if (!ImGui::BeginPopupModal("Could not open", nullptr, ImGuiWindowFlags_AlwaysAutoResize)) return;
+    ImGui::PushTextWrapPos(ImGui::GetFontSize() * 36.0f);
+    ImGui::TextUnformatted(open_failure_.c_str());
+    ImGui::TextDisabled("%s", document_ ? ("Still open: " + mesh_name_).c_str() : "No mesh is open.");
+    ImGui::PopTextWrapPos();
+    const auto close = [this] {
+      open_failure_.clear();
+      ImGui::CloseCurrentPopup();
+    };
+    if (ImGui::Button("Open another... (Enter)") || pressed(GLFW_KEY_ENTER) || pressed(GLFW_KEY_KP_ENTER)) {
+      close();
+      request_open();
+    }
+    ImGui::SameLine();
+    if (ImGui::Button("Copy the message")) ImGui::SetClipboardText(open_failure_.c_str());
+    ImGui::SameLine();
+    if (ImGui::Button("Close (Esc)") || pressed(GLFW_KEY_ESCAPE)) close();
+    ImGui::EndPopup();
   }
 
   // ---- actions ------------------------------------------------------------------------------------
@@ -1094,6 +1237,22 @@ class EditorApp {
     }
   }
 
+  // The state goes to the recovery file, synchronously, and stays there for the next start.
+  void quit_on_signal(int signal) {
+    if (document_ && recovery_) {
+      recovery_->post(document_->session());
+      recovery_->flush();
+    }
+    keep_recovery_ = recovery_ && std::filesystem::exists(recovery_->path());
+    print_json_line({{"event", "signal"},
+                     {"signal", signal == SIGTERM ? "SIGTERM" : signal == SIGINT ? "SIGINT" : "SIGHUP"},
+                     {"recovery", keep_recovery_ ? recovery_->path().string() : ""}});
+    std::cerr << "hdeform: stopped by a signal; " << (keep_recovery_ ? "the session is in " + recovery_->path().string() + ", offered at the next start" : std::string("nothing to recover"))
+              << '\n';
+    exit_code_ = 128 + signal;
+    quit_ = true;
+  }
+
   void request_quit() {
     if (document_ && document_->modified() && options_.benchmark_drag_seconds <= 0.0) quit_dialog_ = true;
     else quit_ = true;
@@ -1118,8 +1277,8 @@ class EditorApp {
     if (pressed(GLFW_KEY_Z, kCtrl)) undo();
     if (pressed(GLFW_KEY_Z, kCtrl | GLFW_MOD_SHIFT) || pressed(GLFW_KEY_Y, kCtrl)) redo();
     if (pressed(GLFW_KEY_S, kCtrl)) save(output_path_);
-    if (pressed(GLFW_KEY_S, kCtrl | GLFW_MOD_SHIFT)) save_dialog_ = true;
-    if (pressed(GLFW_KEY_O, kCtrl)) open_dialog_ = true;
+    if (pressed(GLFW_KEY_S, kCtrl | GLFW_MOD_SHIFT)) request_save_as();
+    if (pressed(GLFW_KEY_O, kCtrl)) request_open();
     if (pressed(GLFW_KEY_DELETE, kCtrl) && document_ && document_->handle_count() > 0) {
       finish_action([this] { document_->remove_handle(document_->active_handle()); });
     }
@@ -1511,6 +1670,8 @@ class EditorApp {
   char path_buffer_[1024] = {};
   std::string status_;
   std::string error_message_;
+  std::string open_failure_;
+  std::string last_open_request_;  // the path last given to Open, a drop or the command line  // shown in the "Could not open" dialog until dismissed
   std::vector<std::string> dropped_paths_;
   Mode mode_ = Mode::Edit;
   std::unique_ptr<TransferView> transfer_;
@@ -1535,7 +1696,9 @@ class EditorApp {
   std::vector<KeyPress> frame_keys_;   // this frame's
 
   bool show_help_ = false;
-  bool show_restore_prompt_ = false;
+  bool keep_recovery_ = false;  // quit by a signal: the recovery file is what the next start offers
+  std::optional<RestoreOffer> restore_offer_;  // the restore prompt is open
+  std::string after_open_note_;                // said in the status line once the next document opens
   bool open_dialog_ = false;
   bool save_dialog_ = false;
   bool quit_dialog_ = false;

@@ -8,6 +8,7 @@
 #include <functional>
 #include <mutex>
 #include <optional>
+#include <string>
 #include <thread>
 
 #include "session.h"
@@ -17,6 +18,18 @@ namespace hdeform::cli {
 // $HDEFORM_RECOVERY_FILE, else $XDG_STATE_HOME/hdeform/recovery.json, else
 // ~/.local/state/hdeform/recovery.json.
 std::filesystem::path default_recovery_path();
+
+// What a recovery file holds, in words for the restore prompt: the mesh, then the handles (and
+// whether any is moved), the fixed vertices, the region of interest and the applied stages, for
+// example "1 handle (193 vertices, moved), 412 fixed vertices, 2 applied stages".
+std::string describe_session(const Session& session);
+// "18:42:07, 12 minutes ago": when the file was last written, in local time.
+std::string describe_age(std::filesystem::file_time_type written, std::filesystem::file_time_type now);
+
+// Moves a recovery file the user chose not to restore out of the way, beside it and named by
+// the time (recovery-2026-12-01-184207.json, a number added if that exists), so that the new
+// session's recovery writes do not overwrite it; returns the new path.
+std::filesystem::path set_recovery_aside(const std::filesystem::path& path);
 
 class RecoveryWriter {
  public:

@@ -9,7 +9,9 @@ std::optional<std::string> path_prompt(const char* title, bool& open, std::span<
   if (!ImGui::BeginPopupModal(title, nullptr, ImGuiWindowFlags_AlwaysAutoResize)) return std::nullopt;
   std::optional<std::string> chosen;
   ImGui::SetNextItemWidth(520);
-  const bool entered = ImGui::InputText("Path", buffer.data(), buffer.size(), ImGuiInputTextFlags_EnterReturnsTrue);
+  // Focused when it appears, and all selected: typing replaces the suggestion.
+  if (ImGui::IsWindowAppearing()) ImGui::SetKeyboardFocusHere();
+  const bool entered = ImGui::InputText("Path", buffer.data(), buffer.size(), ImGuiInputTextFlags_EnterReturnsTrue | ImGuiInputTextFlags_AutoSelectAll);
   if (ImGui::Button(title) || entered) {
     open = false;
     ImGui::CloseCurrentPopup();

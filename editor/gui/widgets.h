@@ -6,8 +6,8 @@
 
 namespace hdeform::cli {
 
-// A modal that asks for a path (`title` names it and its confirm button). Opens while `open` is
-// set; returns the text when confirmed (Enter or the button) and clears `open` then, or when
+// A modal that asks for a path (`title` names it and its confirm button), its box focused with
+// the text selected. Opens while `open` is set; returns the text when confirmed (Enter or the button) and clears `open` then, or when
 // cancelled (the button or `cancel_pressed`, the frame's Escape).
 std::optional<std::string> path_prompt(const char* title, bool& open, std::span<char> buffer, bool cancel_pressed);
 

@@ -1,0 +1,29 @@
+#pragma once
+// The question at start when the last run did not end cleanly: what the recovery file holds
+// (its mesh, its contents, when it was written) against what the command line asked for, and
+// the user's answer.
+#include <filesystem>
+#include <string>
+
+namespace hdeform::cli {
+
+struct RestoreOffer {
+  std::filesystem::path recovery;
+  std::string mesh;       // the recovered session's mesh
+  std::string holds;      // describe_session()
+  std::string written;    // describe_age()
+  std::string requested;  // the mesh or session named on the command line ("": none)
+  // Whether restoring leaves the requested file unopened (it names another mesh).
+  bool conflicts() const { return !requested.empty() && requested != mesh; }
+};
+
+// Reads the recovery file (InputError naming it when it cannot be read). `requested` is the
+// command line's mesh or session, as given.
+RestoreOffer make_restore_offer(const std::filesystem::path& recovery, const std::string& requested);
+
+enum class RestoreChoice { Undecided, Restore, OpenRequested, Discard };
+
+// The modal (Dear ImGui); `enter` and `escape` are this frame's key presses.
+RestoreChoice restore_prompt(const RestoreOffer& offer, bool enter, bool escape);
+
+}  // namespace hdeform::cli
