@@ -2,8 +2,9 @@
 // real X input from xdotool (pointer moves, button and key presses through XTEST), and the files
 // it writes. Paint a sink and a handle, drag the handle, save: the saved mesh is the batch replay
 // of the saved session and moved where the handle did; the window's screenshot is the offscreen
-// render of the same state; kill -9 and restart restores the state before the kill; the
-// validation layer reports nothing.
+// render of the same state; kill -9 and restart restores the state before the kill; a bad mesh
+// is explained in a dialog; typed values are undoable and reach the recovery file; SIGTERM keeps
+// the session for a restore prompt that names it; the validation layer reports nothing.
 #include <nlohmann/json.hpp>
 
 #include <fcntl.h>
@@ -16,7 +17,10 @@
 #include <chrono>
 #include <condition_variable>
 #include <fstream>
+#include <functional>
 #include <mutex>
+#include <numbers>
+#include <optional>
 #include <random>
 #include <thread>
 
@@ -172,6 +176,7 @@ class Editor {
     kill_now();
     return -1;
   }
+  void send(int signal) { ::kill(pid_, signal); }
   void kill_now() {
     if (pid_ <= 0) return;
     ::kill(pid_, SIGKILL);
@@ -568,6 +573,158 @@ TEST_F(EditorGui, RecoveryFileSurvivesKillNineAtRandomMoments) {
   }
   EXPECT_TRUE(left.empty()) << "temporary recovery files remain, e.g. " << (left.empty() ? "" : left.front());
   EXPECT_FALSE(std::filesystem::exists(recovery_file)) << "a clean exit removes the recovery file";
+}
+
+// The panel's Move field (its x component) and Angle field, in window pixels: the panel lays
+// out from the top with ImGui's built-in font, whatever the window's size.
+const Eigen::Vector2f kMoveX{40.0f, 457.0f};
+const Eigen::Vector2f kAngle{110.0f, 503.0f};
+
+// Polls the recovery file until `holds` accepts its session (a write is atomic: never half a file).
+std::optional<cli::Session> recovery_holding(const std::filesystem::path& path, const std::function<bool(const cli::Session&)>& holds,
+                                             std::chrono::seconds timeout = 20s) {
+  const auto deadline = Clock::now() + timeout;
+  std::optional<cli::Session> last;
+  while (Clock::now() < deadline) {
+    try {
+      last = cli::read_session(path);
+      if (holds(*last)) return last;
+    } catch (const std::exception&) {
+    }
+    std::this_thread::sleep_for(100ms);
+  }
+  ADD_FAILURE() << "the recovery file never held the expected state" << (last ? "" : " (never readable)");
+  return std::nullopt;
+}
+
+// The window as it looks (Shift+F12 writes it, panel and dialogs included).
+engine::Pixels window_picture(Editor& editor) {
+  const auto before = editor.event_count();
+  xdotool("key shift+F12");
+  const json shot = editor.wait_for("screenshot", 30s, before);
+  return engine::read_png(shot.value("path", std::string()));
+}
+
+// How many pixels in the middle of the window have ImGui's active title-bar colour: a dialog.
+int title_bar_pixels(const engine::Pixels& picture) {
+  int count = 0;
+  for (uint32_t y = picture.height / 4; y < picture.height * 3 / 4; ++y) {
+    for (uint32_t x = picture.width / 4; x < picture.width * 3 / 4; ++x) {
+      const uint8_t* p = &picture.rgba[(static_cast<std::size_t>(y) * picture.width + x) * 4];
+      if (std::abs(p[0] - 41) <= 3 && std::abs(p[1] - 74) <= 3 && std::abs(p[2] - 122) <= 3) ++count;
+    }
+  }
+  return count;
+}
+
+TEST_F(EditorGui, ABadMeshOnTheCommandLineIsExplainedInTheWindowAndOpenRecovers) {
+  {
+    std::ofstream broken(dir.file("broken.obj"));
+    broken << "v 0 0 0\nv 1 0 0\nf 1 2 7\n";
+  }
+  Editor editor({dir.file("broken.obj").string(), "--size", std::to_string(kWidth) + "x" + std::to_string(kHeight), "--recovery-file",
+                 dir.file("recovery.json").string(), "--restore", "no", "--screenshot-dir", dir.path().string(), "--validation"});
+  const json dialog = editor.wait_for("dialog");
+  EXPECT_EQ(dialog.value("title", ""), "Could not open");
+  EXPECT_EQ(dialog.value("message", ""), dir.file("broken.obj").string() + ":3: face index 7 out of range (the file has 2 vertices)");
+  ASSERT_NO_FATAL_FAILURE(find_window());
+  std::this_thread::sleep_for(500ms);
+  const engine::Pixels shown = window_picture(editor);
+  EXPECT_GT(title_bar_pixels(shown), 1000) << "no dialog in the middle of the window";
+  // Enter: Open another, its box focused and holding the folder; type a good file.
+  const auto before = editor.event_count();
+  press("Return");
+  std::this_thread::sleep_for(300ms);
+  xdotool("type --delay 40 " + dir.file("cactus.obj").string());
+  press("Return");
+  const json opened = editor.wait_for("opened", 60s, before);
+  EXPECT_EQ(opened.value("mesh", ""), dir.file("cactus.obj").string());
+  std::this_thread::sleep_for(500ms);
+  EXPECT_LT(title_bar_pixels(window_picture(editor)), 50) << "the dialog stayed";
+  quit(editor);
+}
+
+// Double click Move X, type a value, Enter: the mesh follows, Ctrl+Z takes it back, Ctrl+Shift+Z
+// brings it again (never an older state), and kill -9 finds it in the recovery file. The digits
+// typed into the fields never reach the shortcuts (1 would pick the paint tool, 0 reset the pose).
+TEST_F(EditorGui, TypedValuesAreUndoableStepsAndReachTheRecoveryFile) {
+  const auto recovery = dir.file("recovery.json");
+  Editor editor({"shape:cactus", "--size", std::to_string(kWidth) + "x" + std::to_string(kHeight), "--recovery-file", recovery.string(),
+                 "--restore", "no", "--validation"});
+  editor.wait_for("opened");
+  ASSERT_NO_FATAL_FAILURE(find_window());
+  EXPECT_EQ(editor.settled_solver_state(), "ready");
+  // The panel's fields are single precision.
+  const auto shift_x = [](const cli::Session& session) { return static_cast<float>(session.current.handles.at(0).transform.shift.x()); };
+  move_to(kMoveX);
+  xdotool("click --repeat 2 --delay 60 1");
+  xdotool("type --delay 60 0.1");
+  press("Return");
+  const auto moved = recovery_holding(recovery, [&](const cli::Session& s) { return shift_x(s) == 0.1f; });
+  ASSERT_TRUE(moved);
+  move_to({kWidth * 0.75f, kHeight * 0.5f});
+  press("ctrl+z");
+  ASSERT_TRUE(recovery_holding(recovery, [&](const cli::Session& s) { return shift_x(s) == 0.0f; }));
+  press("ctrl+shift+z");
+  ASSERT_TRUE(recovery_holding(recovery, [&](const cli::Session& s) { return shift_x(s) == 0.1f; }));
+  move_to(kAngle);
+  xdotool("click --repeat 2 --delay 60 1");
+  xdotool("type --delay 60 10");
+  press("Return");
+  const auto typed = recovery_holding(recovery, [&](const cli::Session& s) { return s.current.handles.at(0).transform.angle != 0.0; });
+  ASSERT_TRUE(typed);
+  EXPECT_NEAR(typed->current.handles[0].transform.angle, 10.0 * std::numbers::pi / 180.0, 1e-6);
+  EXPECT_EQ(shift_x(*typed), 0.1f) << "the 0 typed into the angle reset the pose";
+  EXPECT_EQ(typed->current.handles[0].vertices, moved->current.handles[0].vertices);
+  EXPECT_EQ(typed->current.fixed, moved->current.fixed);
+  editor.kill_now();
+  const cli::Session after_kill = cli::read_session(recovery);
+  EXPECT_EQ(after_kill.current, typed->current);
+}
+
+// SIGTERM keeps the session for the next start, which names it and, declined, opens what the
+// command line asked for, keeping the recovered session in a file of its own.
+TEST_F(EditorGui, AfterSigtermTheNextStartOffersTheSessionBesideTheRequestedMesh) {
+  const auto recovery = dir.file("recovery.json");
+  const std::vector<std::string> common{"--size", std::to_string(kWidth) + "x" + std::to_string(kHeight), "--recovery-file", recovery.string(),
+                                        "--restore", "ask", "--validation"};
+  std::vector<std::string> first{"shape:cactus"}, second{"shape:bar"};
+  first.insert(first.end(), common.begin(), common.end());
+  second.insert(second.end(), common.begin(), common.end());
+  cli::Session moved;
+  {
+    Editor editor(first);
+    editor.wait_for("opened");
+    ASSERT_NO_FATAL_FAILURE(find_window());
+    move_to(kMoveX);
+    xdotool("click --repeat 2 --delay 60 1");
+    xdotool("type --delay 60 0.2");  // still in the field, not committed: the signal must keep it anyway
+    std::this_thread::sleep_for(300ms);
+    const auto before = editor.event_count();
+    editor.send(SIGTERM);
+    const json signal = editor.wait_for("signal", 30s, before);
+    EXPECT_EQ(signal.value("signal", ""), "SIGTERM");
+    EXPECT_EQ(signal.value("recovery", ""), recovery.string());
+    EXPECT_EQ(editor.wait_exit(), 128 + SIGTERM);
+    moved = cli::read_session(recovery);
+    EXPECT_FLOAT_EQ(static_cast<float>(moved.current.handles.at(0).transform.shift.x()), 0.2f);
+  }
+  Editor editor(second);
+  const json prompt = editor.wait_for("restore prompt");
+  EXPECT_EQ(prompt.value("mesh", ""), "shape:cactus");
+  EXPECT_EQ(prompt.value("requested", ""), "shape:bar");
+  EXPECT_EQ(prompt.value("holds", "").substr(0, 27), "1 handle (193 vertices, mov");
+  ASSERT_NO_FATAL_FAILURE(find_window());
+  std::this_thread::sleep_for(300ms);
+  EXPECT_GT(title_bar_pixels(window_picture(editor)), 1000) << "no prompt in the middle of the window";
+  press("Escape");  // open the requested mesh
+  const json kept = editor.wait_for("recovery kept");
+  const json opened = editor.wait_for("opened");
+  EXPECT_EQ(opened.value("mesh", ""), "shape:bar");
+  EXPECT_EQ(cli::read_session(kept.value("path", std::string())).current, moved.current);
+  quit(editor);
+  EXPECT_FALSE(std::filesystem::exists(recovery)) << "a clean exit removes its own recovery file";
+  EXPECT_TRUE(std::filesystem::exists(kept.value("path", std::string()))) << "but never the one kept";
 }
 
 TEST_F(EditorGui, TransferModeMarkersUndoSaveAndCompute) {

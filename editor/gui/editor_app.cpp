@@ -105,7 +105,7 @@ constexpr std::pair<const char*, const char*> kShortcuts[] = {
     {"Ctrl+S / Ctrl+Shift+S", "save / save as (the mesh, and its session beside it)"},
     {"W / H / K", "wireframe / harmonic field / vertex classes"},
     {"P", "profiler: the last updates, iterations and frames by stage"},
-    {"F12", "screenshot of the view (without the panel)"},
+    {"F12 / Shift+F12", "screenshot of the view / of the whole window"},
     {"F1", "this help"},
     {"Ctrl+T", "transfer mode: source and target side by side"},
     {"Transfer: click, click", "a vertex on one mesh, then its counterpart: a marker pair"},
@@ -719,7 +719,7 @@ class EditorApp {
     handle_keys();
     if (mode_ == Mode::Transfer) {
       transfer_->handle_mouse();
-      if (!screenshot_requested_) transfer_->draw_overlays();
+      if (!view_only_screenshot()) transfer_->draw_overlays();
     } else {
       handle_mouse();
       draw_overlays();
@@ -786,7 +786,7 @@ class EditorApp {
     if (mode_ == Mode::Transfer) transfer_->record(slot.commands, slot.index);
     else renderer_->record(slot.commands, slot.index, extent);
     const bool screenshot = screenshot_requested_;
-    if (!screenshot) ImGui_ImplVulkan_RenderDrawData(draw_data, slot.commands);
+    if (!view_only_screenshot()) ImGui_ImplVulkan_RenderDrawData(draw_data, slot.commands);
     target_->end(slot.commands, image, screenshot);
     const std::uint64_t frame = slots_->submit(slot, slot.image_available, target_->render_finished(image));
     last_submitted_frame_ = frame;
@@ -854,6 +854,8 @@ class EditorApp {
       }
     }
   }
+
+  bool view_only_screenshot() const { return screenshot_requested_ && !screenshot_with_panel_; }
 
   void write_screenshot(const engine::Pixels& pixels) {
     const auto path = std::filesystem::path(options_.screenshot_dir) / ("screenshot-" + std::to_string(++screenshots_) + ".png");
@@ -1126,7 +1128,10 @@ class EditorApp {
   // A file that could not be opened (from the command line, Open, a drop or a session): the
   // reason in full, in the window, with the previous document (if any) still open behind it.
   void draw_open_failure() {
-    if (!open_failure_.empty() && !ImGui::IsPopupOpen("Could not open")) ImGui::OpenPopup("Could not open");
+    if (!open_failure_.empty() && !ImGui::IsPopupOpen("Could not open")) {
+      ImGui::OpenPopup("Could not open");
+      print_json_line({{"event", "dialog"}, {"title", "Could not open"}, {"message", open_failure_}});
+    }
     if (!ImGui::BeginPopupModal("Could not open", nullptr, ImGuiWindowFlags_AlwaysAutoResize)) return;
     ImGui::PushTextWrapPos(ImGui::GetFontSize() * 36.0f);
     ImGui::TextUnformatted(open_failure_.c_str());
@@ -1263,13 +1268,17 @@ class EditorApp {
   // ---- input ------------------------------------------------------------------------------------------
 
   void handle_keys() {
+    // Screenshots work over dialogs too (a picture of what went wrong).
+    if (pressed(GLFW_KEY_F12) || pressed(GLFW_KEY_F12, GLFW_MOD_SHIFT)) {
+      screenshot_requested_ = true;
+      screenshot_with_panel_ = pressed(GLFW_KEY_F12, GLFW_MOD_SHIFT);
+    }
     const ImGuiIO& io = ImGui::GetIO();
     if (io.WantCaptureKeyboard) return;
     constexpr int kCtrl = GLFW_MOD_CONTROL;
     if (pressed(GLFW_KEY_T, kCtrl)) set_mode(mode_ == Mode::Transfer ? Mode::Edit : Mode::Transfer);
     if (pressed(GLFW_KEY_Q, kCtrl)) request_quit();
     if (pressed(GLFW_KEY_F1)) show_help_ = !show_help_;
-    if (pressed(GLFW_KEY_F12)) screenshot_requested_ = true;
     if (mode_ == Mode::Transfer) {
       for (const auto& press : frame_keys_) transfer_->handle_key(press.key, press.mods);
       return;
@@ -1504,7 +1513,7 @@ class EditorApp {
   }
 
   void draw_overlays() {
-    if (!document_ || screenshot_requested_) return;
+    if (!document_ || view_only_screenshot()) return;
     ImDrawList* draw = ImGui::GetForegroundDrawList();
     const ImVec2 mouse = ImGui::GetIO().MousePos;
     if (is_paint_tool(tool_)) {
@@ -1705,6 +1714,7 @@ class EditorApp {
   bool quit_ = false;
   int exit_code_ = 0;
   bool screenshot_requested_ = false;
+  bool screenshot_with_panel_ = false;  // Shift+F12: the window as it looks, panel and dialogs too
   int screenshots_ = 0;
   bool recovery_dirty_ = false;
   Clock::time_point last_recovery_ = Clock::now();
