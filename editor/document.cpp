@@ -38,7 +38,7 @@ Document::Document(Session session, Mesh base, DeformerOptions options, Publish 
   rest_ = std::move(rest);
   load_stage(session.current);
   active_handle_ = handles_.empty() ? 0 : std::clamp(session.active_handle, 0, static_cast<int>(handles_.size()) - 1);
-  history_.push_back({this->session(), rest_});
+  history_.push_back({this->session(), rest_, "open"});
 }
 
 Document::~Document() {
@@ -210,6 +210,8 @@ void Document::remove_handle(int handle) {
   active_handle_ = std::min(active_handle_, std::max(0, static_cast<int>(handles_.size()) - 1));
 }
 
+std::size_t Document::fixed_count() const { return static_cast<std::size_t>(std::count(labels_.begin(), labels_.end(), kFixed)); }
+
 std::size_t Document::handle_size(int handle) const { return handle_sizes_[static_cast<std::size_t>(handle)]; }
 
 void Document::set_pose(int handle, const Eigen::Vector3d& axis, double angle, double scale, const Eigen::Vector3d& shift) {
@@ -234,8 +236,8 @@ void Document::apply() {
   for (std::size_t h = 0; h < handles_.size(); ++h) refresh_pivot(static_cast<int>(h));
 }
 
-void Document::commit() {
-  Snapshot snapshot{session(), rest_};
+void Document::commit(std::string what) {
+  Snapshot snapshot{session(), rest_, std::move(what)};
   const Snapshot& last = history_[history_index_];
   if (snapshot.session == last.session && snapshot.rest == last.rest) return;
   history_.resize(history_index_ + 1);
@@ -253,6 +255,7 @@ void Document::commit() {
 bool Document::undo() {
   commit();
   if (!can_undo()) return false;
+  last_history_step_ = history_[history_index_].what;
   const Snapshot& snapshot = history_[--history_index_];
   applied_ = snapshot.session.applied;
   rest_ = snapshot.rest;
@@ -267,6 +270,7 @@ bool Document::redo() {
   commit();
   if (!can_redo()) return false;
   const Snapshot& snapshot = history_[++history_index_];
+  last_history_step_ = snapshot.what;
   applied_ = snapshot.session.applied;
   rest_ = snapshot.rest;
   active_handle_ = snapshot.session.active_handle;

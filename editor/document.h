@@ -53,6 +53,8 @@ class Document {
   // the whole mesh).
   int label(int vertex) const { return labels_[static_cast<std::size_t>(vertex)]; }
   bool has_region_of_interest() const { return roi_count_ > 0; }
+  std::size_t region_of_interest_size() const { return roi_count_; }
+  std::size_t fixed_count() const;
   bool in_region_of_interest(int vertex) const { return roi_[static_cast<std::size_t>(vertex)]; }
 
   // Painting (one history step per call to commit()). Fixed and handle are exclusive: painting
@@ -77,14 +79,17 @@ class Document {
   // Makes the current result the rest shape (the stage is kept, its poses reset).
   void apply();
 
-  // Records the current state as one undo step if it differs from the last one.
-  void commit();
+  // Records the current state as one undo step if it differs from the last one; `what` names
+  // the step for the status line ("paint fixed", "move handle 1").
+  void commit(std::string what = "edit");
   bool can_undo() const { return history_index_ > 0; }
   bool can_redo() const { return history_index_ + 1 < history_.size(); }
   // Both first commit a pending change (so it is never lost: undo goes to the step before it,
   // and redo finds no branch to replace it with).
   bool undo();
   bool redo();
+  // The name of the step the last undo() took back or redo() brought again.
+  const std::string& last_history_step() const { return last_history_step_; }
   // Whether the state differs from the one last marked saved.
   bool modified() const;
   void mark_saved();
@@ -137,6 +142,7 @@ class Document {
   struct Snapshot {
     Session session;
     std::shared_ptr<const Mesh> rest;
+    std::string what;  // the step that led to this state
   };
   struct Build;
 
@@ -185,6 +191,7 @@ class Document {
   std::vector<Snapshot> history_;
   std::size_t history_index_ = 0;
   std::size_t saved_index_ = 0;
+  std::string last_history_step_;
 };
 
 }  // namespace hdeform::cli

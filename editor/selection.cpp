@@ -35,17 +35,40 @@ std::vector<int> vertices_in_ball(std::span<const float> position_normal, const 
   return inside;
 }
 
+namespace {
+
+// A vertex's pixel (y down), or nothing behind the camera.
+std::optional<Eigen::Vector2f> project_to_pixel(const float* position, const Eigen::Matrix4f& view_projection, float width, float height) {
+  const Eigen::Vector4f clip = view_projection * Eigen::Vector4f(position[0], position[1], position[2], 1.0f);
+  if (clip.w() <= 0.0f) return std::nullopt;
+  return Eigen::Vector2f((clip.x() / clip.w() * 0.5f + 0.5f) * width, (clip.y() / clip.w() * 0.5f + 0.5f) * height);
+}
+
+}  // namespace
+
+std::vector<int> vertices_in_screen_disc(std::span<const float> position_normal, const Eigen::Vector2f& center, float radius,
+                                         const Eigen::Matrix4f& view_projection, float width, float height) {
+  std::vector<int> inside;
+  const std::size_t n = position_normal.size() / 6;
+  for (std::size_t v = 0; v < n; ++v) {
+    const auto pixel = project_to_pixel(position_normal.data() + 6 * v, view_projection, width, height);
+    if (pixel && (*pixel - center).squaredNorm() <= radius * radius) inside.push_back(static_cast<int>(v));
+  }
+  return inside;
+}
+
 std::vector<int> vertices_in_lasso(std::span<const float> position_normal, std::span<const Eigen::Vector2f> polygon,
-                                   const Eigen::Matrix4f& view_projection, float width, float height, const Eigen::Vector3f& towards_viewer) {
+                                   const Eigen::Matrix4f& view_projection, float width, float height,
+                                   const std::optional<Eigen::Vector3f>& towards_viewer) {
   std::vector<int> inside;
   if (polygon.size() < 3) return inside;
   const std::size_t n = position_normal.size() / 6;
   for (std::size_t v = 0; v < n; ++v) {
     const float* data = position_normal.data() + 6 * v;
-    if (Eigen::Vector3f(data[3], data[4], data[5]).dot(towards_viewer) <= 0.0f) continue;
-    const Eigen::Vector4f clip = view_projection * Eigen::Vector4f(data[0], data[1], data[2], 1.0f);
-    if (clip.w() <= 0.0f) continue;
-    const Eigen::Vector2f pixel((clip.x() / clip.w() * 0.5f + 0.5f) * width, (clip.y() / clip.w() * 0.5f + 0.5f) * height);
+    if (towards_viewer && Eigen::Vector3f(data[3], data[4], data[5]).dot(*towards_viewer) <= 0.0f) continue;
+    const auto projected = project_to_pixel(data, view_projection, width, height);
+    if (!projected) continue;
+    const Eigen::Vector2f& pixel = *projected;
     // Even-odd rule.
     bool in = false;
     for (std::size_t i = 0, j = polygon.size() - 1; i < polygon.size(); j = i++) {

@@ -3,6 +3,7 @@
 // shrinking by one ring, and the connected part under a vertex. Positions come as the renderer
 // receives them: 6 floats per vertex (position, normal).
 #include <Eigen/Core>
+#include <optional>
 #include <span>
 #include <vector>
 
@@ -28,8 +29,15 @@ std::vector<int> vertices_in_ball(std::span<const float> position_normal, const 
 
 // Vertices whose projection (view_projection, a width×height view, y down) lies inside the
 // polygon (pixels) and whose normal faces `towards_viewer`: what the user sees inside the lasso.
+// Without `towards_viewer` (paint-through), every vertex inside, front and back.
 std::vector<int> vertices_in_lasso(std::span<const float> position_normal, std::span<const Eigen::Vector2f> polygon,
-                                   const Eigen::Matrix4f& view_projection, float width, float height, const Eigen::Vector3f& towards_viewer);
+                                   const Eigen::Matrix4f& view_projection, float width, float height,
+                                   const std::optional<Eigen::Vector3f>& towards_viewer);
+
+// Paint-through brush: every vertex whose projection lies within `radius` pixels of `center`,
+// whatever its depth (a ring painted from one side is the whole ring).
+std::vector<int> vertices_in_screen_disc(std::span<const float> position_normal, const Eigen::Vector2f& center, float radius,
+                                         const Eigen::Matrix4f& view_projection, float width, float height);
 
 // The members plus every neighbour of a member.
 std::vector<bool> grown(const std::vector<bool>& members, const VertexAdjacency& adjacency);

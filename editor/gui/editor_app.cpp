@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <array>
 #include <csignal>
+#include <cctype>
 #include <chrono>
 #include <cmath>
 #include <deque>
@@ -74,6 +75,11 @@ const char* tool_name(Tool tool) {
   return "";
 }
 
+std::string lowercase_first(std::string text) {
+  if (!text.empty()) text[0] = static_cast<char>(std::tolower(static_cast<unsigned char>(text[0])));
+  return text;
+}
+
 bool is_paint_tool(Tool tool) { return tool == Tool::PaintRoi || tool == Tool::PaintFixed || tool == Tool::PaintHandle; }
 
 Layer layer_of(Tool tool) {
@@ -88,6 +94,7 @@ constexpr std::pair<const char*, const char*> kShortcuts[] = {
     {"F", "fit the view to the mesh"},
     {"1 / 2 / 3", "paint region of interest / fixed / handle"},
     {"E", "erase instead of paint"},
+    {"Alt+Z", "paint through: the brush and lasso reach the back too"},
     {"L", "lasso instead of brush"},
     {"[ / ]", "smaller / larger brush"},
     {"C, then click", "paint the connected part under the cursor"},
@@ -939,18 +946,24 @@ class EditorApp {
     for (const Tool tool : {Tool::PaintRoi, Tool::PaintFixed, Tool::PaintHandle, Tool::Grab, Tool::Rotate, Tool::Scale, Tool::Twist}) {
       if (ImGui::RadioButton(tool_name(tool), tool_ == tool)) tool_ = tool;
     }
+    const float column = ImGui::GetContentRegionAvail().x * 0.5f;  // two columns: no label past the edge
     ImGui::Checkbox("Erase (E)", &erase_);
-    ImGui::SameLine();
+    ImGui::SameLine(column);
     ImGui::Checkbox("Lasso (L)", &lasso_);
+    ImGui::Checkbox("Paint through, front and back (Alt+Z)", &paint_through_);
+    if (ImGui::IsItemHovered()) ImGui::SetTooltip("The brush and the lasso take every vertex under them, also those facing away:\na ring painted from one side is the whole ring.");
     ImGui::SliderFloat("Brush", &brush_radius_, 0.001f * scene_size(), 0.2f * scene_size(), "%.4f");
-    if (ImGui::Button("Invert")) layer_action([this](Layer layer) { document_->invert(layer); });
+    if (ImGui::Button("Invert")) layer_action("invert", [this](Layer layer) { document_->invert(layer); });
     ImGui::SameLine();
-    if (ImGui::Button("Grow")) layer_action([this](Layer layer) { document_->grow(layer); });
+    if (ImGui::Button("Grow")) layer_action("grow", [this](Layer layer) { document_->grow(layer); });
     ImGui::SameLine();
-    if (ImGui::Button("Shrink")) layer_action([this](Layer layer) { document_->shrink(layer); });
+    if (ImGui::Button("Shrink")) layer_action("shrink", [this](Layer layer) { document_->shrink(layer); });
     ImGui::SameLine();
-    if (ImGui::Button("Clear")) layer_action([this](Layer layer) { document_->clear(layer); });
+    if (ImGui::Button("Clear")) layer_action("clear", [this](Layer layer) { document_->clear(layer); });
     if (ImGui::Button("Connected (C)")) connected_armed_ = true;
+    if (document_->has_region_of_interest()) ImGui::Text("Region of interest: %zu vertices", document_->region_of_interest_size());
+    else ImGui::Text("Region of interest: the whole mesh");
+    ImGui::Text("Fixed: %zu vertices", document_->fixed_count());
 
     ImGui::Separator();
     ImGui::TextDisabled("Handles");
@@ -967,7 +980,7 @@ class EditorApp {
       tool_ = Tool::PaintHandle;
     }
     ImGui::SameLine();
-    if (ImGui::Button("Remove") && document_->handle_count() > 0) finish_action([this] { document_->remove_handle(document_->active_handle()); });
+    if (ImGui::Button("Remove") && document_->handle_count() > 0) finish_action("remove handle " + std::to_string(document_->active_handle() + 1), [this] { document_->remove_handle(document_->active_handle()); });
     draw_pose_editor();
 
     ImGui::Separator();
@@ -976,21 +989,21 @@ class EditorApp {
     ImGui::SameLine();
     if (ImGui::Button("Redo")) redo();
     ImGui::SameLine();
-    if (ImGui::Button("Reset (0)")) finish_action([this] { document_->reset_poses(); });
+    if (ImGui::Button("Reset (0)")) finish_action("reset the handles", [this] { document_->reset_poses(); });
     ImGui::SameLine();
     if (ImGui::Button("Apply (A)")) apply();
 
     ImGui::Separator();
     ImGui::TextDisabled("View");
+    // Two columns, so that no label runs past the panel's edge.
     if (ImGui::Checkbox("Field (H)", &settings_.show_field)) view_dirty_ = true;
-    ImGui::SameLine();
+    ImGui::SameLine(column);
     ImGui::Checkbox("Classes (K)", &settings_.show_classes);
-    ImGui::SameLine();
     ImGui::Checkbox("Wireframe (W)", &settings_.wireframe);
+    ImGui::SameLine(column);
     ImGui::Checkbox("Flat", &settings_.flat_shading);
-    ImGui::SameLine();
     ImGui::Checkbox("Ground", &settings_.ground);
-    ImGui::SameLine();
+    ImGui::SameLine(column);
     ImGui::Checkbox("Legend", &settings_.legend);
     ImGui::SliderFloat("Isolines", &settings_.isoline_step, 0.0f, 0.5f, "%.3f");
     if (ImGui::Button("Fit (F)")) adjust_camera(false);
@@ -1013,7 +1026,7 @@ class EditorApp {
     bool refine = document_->refine();
     if (ImGui::Checkbox("Refine (as rigid as possible)", &refine)) {
       document_->set_refine(refine);
-      document_->commit();
+      document_->commit(refine ? "refinement on" : "refinement off");
       if (!refine) document_->request_update();  // back to the paper's result on screen
       status_ = refine ? "Refinement on: after each update, iterations until the shape settles" : "Refinement off: the paper's method alone";
     }
@@ -1051,17 +1064,22 @@ class EditorApp {
       note_pose_input(Clock::now());
       recovery_dirty_ = true;
     }
-    if (edit.finished) commit_action();
+    if (edit.finished) commit_action("the pose of handle " + std::to_string(h + 1) + " typed");
   }
 
   void draw_dialogs() {
     if (show_help_) {
       ImGui::SetNextWindowPos(ImVec2(kPanelWidth + 20, 20), ImGuiCond_Appearing);
       ImGui::Begin("Shortcuts (F1)", &show_help_, ImGuiWindowFlags_AlwaysAutoResize);
-      for (const auto& [keys, action] : kShortcuts) {
-        ImGui::TextUnformatted(keys);
-        ImGui::SameLine(230);
-        ImGui::TextUnformatted(action);
+      if (ImGui::BeginTable("shortcuts", 2, ImGuiTableFlags_SizingFixedFit | ImGuiTableFlags_RowBg)) {
+        for (const auto& [keys, action] : kShortcuts) {
+          ImGui::TableNextRow();
+          ImGui::TableNextColumn();
+          ImGui::TextUnformatted(keys);
+          ImGui::TableNextColumn();
+          ImGui::TextUnformatted(action);
+        }
+        ImGui::EndTable();
       }
       ImGui::End();
     }
@@ -1091,9 +1109,9 @@ class EditorApp {
     if (quit_dialog_) ImGui::OpenPopup("Quit");
     if (ImGui::BeginPopupModal("Quit", nullptr, ImGuiWindowFlags_AlwaysAutoResize)) {
       ImGui::Text("Quit without saving the changes?");
-      if (ImGui::Button("Quit")) quit_ = true;
+      if (ImGui::Button("Quit (Enter)") || pressed(GLFW_KEY_ENTER) || pressed(GLFW_KEY_KP_ENTER)) quit_ = true;
       ImGui::SameLine();
-      if (ImGui::Button("Cancel") || pressed(GLFW_KEY_ESCAPE)) {
+      if (ImGui::Button("Cancel (Esc)") || pressed(GLFW_KEY_ESCAPE)) {
         quit_dialog_ = false;
         ImGui::CloseCurrentPopup();
       }
@@ -1154,35 +1172,50 @@ class EditorApp {
 
   // ---- actions ------------------------------------------------------------------------------------
 
-  // A finished action: one undo step, the view refreshed, the recovery file written.
-  void commit_action() {
+  // A finished action: one undo step named `what`, the view refreshed, the recovery file written.
+  void commit_action(const std::string& what) {
     if (!document_) return;
-    document_->commit();
+    document_->commit(what);
     view_dirty_ = true;
     post_recovery();
   }
 
   template <class Act>
-  void finish_action(Act act) {
+  void finish_action(const std::string& what, Act act) {
     if (!document_) return;
     act();
     post_request(Clock::now());
-    commit_action();
+    commit_action(what);
   }
 
+  // `verb` ("invert") applied to the current tool's layer.
   template <class Act>
-  void layer_action(Act act) {
+  void layer_action(const char* verb, Act act) {
     if (!document_ || !is_paint_tool(tool_)) return;
-    finish_action([&] { act(layer_of(tool_)); });
+    finish_action(std::string(verb) + " " + layer_name(), [&] { act(layer_of(tool_)); });
+  }
+
+  // The current paint tool's layer, as the status line names it.
+  std::string layer_name() const {
+    switch (layer_of(tool_)) {
+      case Layer::RegionOfInterest: return "the region of interest";
+      case Layer::Fixed: return "fixed";
+      case Layer::Handle: return "handle " + std::to_string(document_->active_handle() + 1);
+    }
+    return "";
   }
 
   void undo() {
-    if (document_ && document_->undo()) after_history_step("Undone");
+    if (!document_) return;
+    if (document_->undo()) after_history_step("Undone: " + document_->last_history_step());
+    else status_ = "Nothing to undo";
   }
   void redo() {
-    if (document_ && document_->redo()) after_history_step("Redone");
+    if (!document_) return;
+    if (document_->redo()) after_history_step("Redone: " + document_->last_history_step());
+    else status_ = "Nothing to redo";
   }
-  void after_history_step(const char* what) {
+  void after_history_step(const std::string& what) {
     view_dirty_ = true;
     publish_rest_if_needed();
     post_request(Clock::now());
@@ -1194,7 +1227,7 @@ class EditorApp {
     if (!document_ || document_->handle_count() == 0) return;
     try {
       document_->apply();
-      commit_action();
+      commit_action("apply");
       publish_rest_if_needed();
       status_ = "Applied: the result is the new rest shape";
     } catch (const std::exception& error) {
@@ -1289,7 +1322,7 @@ class EditorApp {
     if (pressed(GLFW_KEY_S, kCtrl | GLFW_MOD_SHIFT)) request_save_as();
     if (pressed(GLFW_KEY_O, kCtrl)) request_open();
     if (pressed(GLFW_KEY_DELETE, kCtrl) && document_ && document_->handle_count() > 0) {
-      finish_action([this] { document_->remove_handle(document_->active_handle()); });
+      finish_action("remove handle " + std::to_string(document_->active_handle() + 1), [this] { document_->remove_handle(document_->active_handle()); });
     }
     if (!document_) return;
     if (pressed(GLFW_KEY_F)) adjust_camera(false);
@@ -1304,11 +1337,12 @@ class EditorApp {
     if (pressed(GLFW_KEY_Y)) twist_axis_ = TwistAxis::Y;
     if (pressed(GLFW_KEY_Z)) twist_axis_ = TwistAxis::Z;
     if (pressed(GLFW_KEY_E)) erase_ = !erase_;
+    if (pressed(GLFW_KEY_Z, GLFW_MOD_ALT)) paint_through_ = !paint_through_;
     if (pressed(GLFW_KEY_L)) lasso_ = !lasso_;
     if (pressed(GLFW_KEY_C)) connected_armed_ = true;
-    if (pressed(GLFW_KEY_I)) layer_action([this](Layer layer) { document_->invert(layer); });
-    if (pressed(GLFW_KEY_EQUAL)) layer_action([this](Layer layer) { document_->grow(layer); });
-    if (pressed(GLFW_KEY_MINUS)) layer_action([this](Layer layer) { document_->shrink(layer); });
+    if (pressed(GLFW_KEY_I)) layer_action("invert", [this](Layer layer) { document_->invert(layer); });
+    if (pressed(GLFW_KEY_EQUAL)) layer_action("grow", [this](Layer layer) { document_->grow(layer); });
+    if (pressed(GLFW_KEY_MINUS)) layer_action("shrink", [this](Layer layer) { document_->shrink(layer); });
     if (pressed(GLFW_KEY_LEFT_BRACKET)) brush_radius_ /= 1.25f;
     if (pressed(GLFW_KEY_RIGHT_BRACKET)) brush_radius_ *= 1.25f;
     if (pressed(GLFW_KEY_N)) {
@@ -1318,7 +1352,7 @@ class EditorApp {
     if (pressed(GLFW_KEY_TAB) && document_->handle_count() > 0) {
       document_->set_active_handle((document_->active_handle() + 1) % static_cast<int>(document_->handle_count()));
     }
-    if (pressed(GLFW_KEY_0)) finish_action([this] { document_->reset_poses(); });
+    if (pressed(GLFW_KEY_0)) finish_action("reset the handles", [this] { document_->reset_poses(); });
     if (pressed(GLFW_KEY_A)) apply();
     if (pressed(GLFW_KEY_W)) settings_.wireframe = !settings_.wireframe;
     if (pressed(GLFW_KEY_V)) twist_axis_ = TwistAxis::View;
@@ -1395,7 +1429,8 @@ class EditorApp {
     if (ImGui::IsMouseReleased(ImGuiMouseButton_Left) || !ImGui::IsMouseDown(ImGuiMouseButton_Left)) {
       dragging_ = false;
       if (is_paint_tool(tool_) && lasso_) paint_lasso();
-      commit_action();
+      commit_action(is_paint_tool(tool_) ? std::string(erase_ ? "erase " : "paint ") + layer_name()
+                                         : lowercase_first(tool_name(tool_)) + " " + std::to_string(document_->active_handle() + 1));
       return;
     }
     if (is_paint_tool(tool_)) {
@@ -1418,12 +1453,38 @@ class EditorApp {
     drag_cursor_ = cursor;
   }
 
+  // The brush on screen: its centre and radius in window pixels, its world size at the cursor's
+  // depth on the mesh (painting through, at the view target's depth where the cursor misses it).
+  std::optional<std::pair<ImVec2, float>> brush_on_screen(const ImVec2& mouse) {
+    if (shown_geometry() == nullptr) return std::nullopt;
+    const auto ray = cursor_ray(mouse);
+    const auto hit = picker_->pick(ray);
+    if (!hit && !paint_through_) return std::nullopt;
+    const Eigen::Vector3f point = hit ? hit->point : Eigen::Vector3f(ray.pointAt((camera_.target - camera_.position()).norm()));
+    const Eigen::Vector3f right = (camera_.target - camera_.position()).cross(camera_.up_vector()).normalized();
+    const ImVec2 centre = project(point);
+    const ImVec2 edge = project(point + brush_radius_ * right);
+    return std::pair{centre, std::hypot(edge.x - centre.x, edge.y - centre.y)};
+  }
+
   void paint_brush(const ImVec2& mouse) {
     const auto* shown = shown_geometry();
     if (shown == nullptr) return;
-    const auto hit = picker_->pick(cursor_ray(mouse));
-    if (!hit) return;
-    const auto vertices = vertices_in_ball(shown->position_normal, hit->point, brush_radius_);
+    std::vector<int> vertices;
+    if (paint_through_) {
+      // Everything under the brush's circle, front and back.
+      const auto brush = brush_on_screen(mouse);
+      if (!brush) return;
+      const ImVec2 scale = ImGui::GetIO().DisplayFramebufferScale;
+      const auto extent = target_->extent();
+      vertices = vertices_in_screen_disc(shown->position_normal, Eigen::Vector2f(brush->first.x * scale.x, brush->first.y * scale.y), brush->second * scale.x,
+                                         camera_.view_projection(static_cast<float>(extent.width) / static_cast<float>(extent.height)),
+                                         static_cast<float>(extent.width), static_cast<float>(extent.height));
+    } else {
+      const auto hit = picker_->pick(cursor_ray(mouse));
+      if (!hit) return;
+      vertices = vertices_in_ball(shown->position_normal, hit->point, brush_radius_);
+    }
     document_->paint(vertices, layer_of(tool_), erase_);
     view_dirty_ = true;
     recovery_dirty_ = true;
@@ -1436,7 +1497,8 @@ class EditorApp {
     std::vector<Eigen::Vector2f> polygon;
     for (const auto& point : stroke_) polygon.emplace_back(point.x * scale.x, point.y * scale.y);
     const auto extent = target_->extent();
-    const Eigen::Vector3f towards_viewer = (camera_.position() - camera_.target).normalized();
+    const std::optional<Eigen::Vector3f> towards_viewer =
+        paint_through_ ? std::nullopt : std::optional<Eigen::Vector3f>((camera_.position() - camera_.target).normalized());
     const auto vertices = vertices_in_lasso(shown->position_normal, polygon,
                                             camera_.view_projection(static_cast<float>(extent.width) / static_cast<float>(extent.height)),
                                             static_cast<float>(extent.width), static_cast<float>(extent.height), towards_viewer);
@@ -1450,7 +1512,8 @@ class EditorApp {
     const auto hit = picker_->pick(cursor_ray(mouse));
     if (!hit) return;
     const auto vertices = connected_vertices(hit->vertex, document_->adjacency());
-    finish_action([&] { document_->paint(vertices, layer_of(tool_), erase_); });
+    finish_action(std::string(erase_ ? "erase " : "paint ") + "the connected part as " + layer_name(),
+                  [&] { document_->paint(vertices, layer_of(tool_), erase_); });
   }
 
   // Moves the active handle by a mouse drag (or the benchmark's synthetic one).
@@ -1519,15 +1582,10 @@ class EditorApp {
     if (is_paint_tool(tool_)) {
       if (lasso_ && stroke_.size() > 1) draw->AddPolyline(stroke_.data(), static_cast<int>(stroke_.size()), IM_COL32(255, 230, 60, 255), 0, 1.5f);
       if (!lasso_ && !ImGui::GetIO().WantCaptureMouse) {
-        // The brush at its world size, at the cursor's depth on the mesh.
-        const engine::GeometrySnapshot* shown = shown_geometry();
-        const auto hit = shown != nullptr ? picker_->pick(cursor_ray(mouse)) : std::nullopt;
-        if (hit) {
-          const Eigen::Vector3f right = (camera_.target - camera_.position()).cross(camera_.up_vector()).normalized();
-          const ImVec2 centre = project(hit->point);
-          const ImVec2 edge = project(hit->point + brush_radius_ * right);
-          draw->AddCircle(centre, std::hypot(edge.x - centre.x, edge.y - centre.y), erase_ ? IM_COL32(255, 80, 80, 255) : IM_COL32(255, 255, 255, 220),
-                          48, 1.5f);
+        if (const auto brush = brush_on_screen(mouse)) {
+          const ImU32 color = erase_ ? IM_COL32(255, 80, 80, 255) : paint_through_ ? IM_COL32(120, 220, 255, 255) : IM_COL32(255, 255, 255, 220);
+          draw->AddCircle(brush->first, brush->second, color, 48, 1.5f);
+          if (paint_through_) draw->AddCircle(brush->first, brush->second - 3.0f, color, 48, 1.0f);
         }
       }
       return;
@@ -1713,6 +1771,7 @@ class EditorApp {
   bool quit_dialog_ = false;
   bool quit_ = false;
   int exit_code_ = 0;
+  bool paint_through_ = false;
   bool screenshot_requested_ = false;
   bool screenshot_with_panel_ = false;  // Shift+F12: the window as it looks, panel and dialogs too
   int screenshots_ = 0;
