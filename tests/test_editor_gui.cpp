@@ -306,6 +306,17 @@ class EditorGui : public ::testing::Test {
     return editor.wait_for("saved", 60s, before);
   }
 
+  // Ctrl+Q with unsaved changes asks first; Enter confirms.
+  void quit_discarding_changes(Editor& editor) {
+    const auto before = editor.event_count();
+    press("ctrl+q");
+    std::this_thread::sleep_for(300ms);
+    press("Return");
+    const json exit_event = editor.wait_for("exit", 60s, before);
+    EXPECT_EQ(exit_event.value("validation_messages", -1), 0) << "Vulkan validation reported problems (see stderr)";
+    EXPECT_EQ(editor.wait_exit(), 0);
+  }
+
   void quit(Editor& editor) {
     const auto before = editor.event_count();
     press("ctrl+q");
@@ -725,6 +736,34 @@ TEST_F(EditorGui, AfterSigtermTheNextStartOffersTheSessionBesideTheRequestedMesh
   quit(editor);
   EXPECT_FALSE(std::filesystem::exists(recovery)) << "a clean exit removes its own recovery file";
   EXPECT_TRUE(std::filesystem::exists(kept.value("path", std::string()))) << "but never the one kept";
+}
+
+// A drag on the gizmo's x axis moves the handle along x and nothing else, about as far as the
+// cursor went along the axis on screen.
+TEST_F(EditorGui, DraggingTheGizmosXAxisMovesTheHandleAlongXOnly) {
+  const auto recovery = dir.file("recovery.json");
+  Editor editor({"shape:cactus:24", "--size", std::to_string(kWidth) + "x" + std::to_string(kHeight), "--recovery-file", recovery.string(),
+                 "--restore", "no", "--validation"});
+  editor.wait_for("opened");
+  ASSERT_NO_FATAL_FAILURE(find_window());
+  EXPECT_EQ(editor.settled_solver_state(), "ready");
+  Eigen::Vector3d pivot = Eigen::Vector3d::Zero();
+  for (const int v : shape.demo_constraints.handles[0]) pivot += shape.mesh.positions.row(v).transpose();
+  pivot /= static_cast<double>(shape.demo_constraints.handles[0].size());
+  const double length = 0.08 * 2.0 * engine::Bounds::of(shape.mesh.positions).radius();  // the editor's gizmo: 8% of the scene
+  const Eigen::Vector2f grab = view.pixel(pivot + 0.6 * length * Eigen::Vector3d::UnitX());
+  const Eigen::Vector2f release = view.pixel(pivot + 1.6 * length * Eigen::Vector3d::UnitX());
+  ASSERT_GT((release - grab).norm(), 20.0f) << "the x axis is seen end-on from the default view";
+  press("g");
+  // Off the axis's screen line by a few pixels on the way: the constraint holds the move to x.
+  drag(grab, release + Eigen::Vector2f(0.0f, 6.0f), 10);
+  const auto moved = recovery_holding(recovery, [](const cli::Session& s) { return s.current.handles.at(0).transform.shift.x() != 0.0; });
+  ASSERT_TRUE(moved);
+  const Eigen::Vector3d shift = moved->current.handles[0].transform.shift;
+  EXPECT_EQ(shift.y(), 0.0);
+  EXPECT_EQ(shift.z(), 0.0);
+  EXPECT_NEAR(shift.x(), length, 0.35 * length);
+  quit_discarding_changes(editor);
 }
 
 TEST_F(EditorGui, TransferModeMarkersUndoSaveAndCompute) {

@@ -7,8 +7,10 @@
 
 #include <algorithm>
 #include <map>
+#include <numbers>
 #include <string>
 
+#include "gui/gizmo.h"
 #include "gui/input_queue.h"
 #include "gui/pose_editor.h"
 
@@ -214,6 +216,90 @@ TEST_F(HeadlessImGui, AnAxisTypedToZeroLengthIsRefused) {
   frame({}, widgets);
   EXPECT_TRUE(changed) << "the typed 0 reached the field";
   EXPECT_EQ(fields.axis, Eigen::Vector3d::UnitY());
+}
+
+// The gizmo's arithmetic against closed forms, with the eye on the +z axis looking down.
+Ray ray_through(const Eigen::Vector3f& point, const Eigen::Vector3f& eye = Eigen::Vector3f(0.3f, -0.2f, 10.0f)) {
+  return Ray(eye, (point - eye).normalized());
+}
+
+TEST(Gizmo, AnAxisDragMovesAlongThatAxisOnlyAndByWhatTheCursorCovers) {
+  const Eigen::Vector3f origin(0.5f, 0.25f, 0.0f);
+  const Eigen::Vector3f x = Eigen::Vector3f::UnitX();
+  // Rays through points beside the axis (off it in y and z): what counts is their nearest approach.
+  const Eigen::Vector3f move = drag_along_axis(ray_through(origin + Eigen::Vector3f(1.0f, 0.0f, 0.0f)), ray_through(origin + Eigen::Vector3f(3.0f, 0.0f, 0.0f)), origin, x);
+  EXPECT_NEAR(move.x(), 2.0f, 1e-4f);
+  EXPECT_EQ(move.y(), 0.0f);
+  EXPECT_EQ(move.z(), 0.0f);
+  // A skew axis: the move is exactly a multiple of it.
+  const Eigen::Vector3f skew = Eigen::Vector3f(1.0f, 2.0f, 0.5f).normalized();
+  const Eigen::Vector3f along = drag_along_axis(ray_through(origin), ray_through(origin + 1.5f * skew), origin, skew);
+  EXPECT_NEAR(along.dot(skew), 1.5f, 1e-3f);
+  EXPECT_LT((along - along.dot(skew) * skew).norm(), 1e-6f);
+  // Looking straight down the axis there is nothing to follow.
+  const Eigen::Vector3f down = Eigen::Vector3f(0.3f, -0.2f, 10.0f).normalized();
+  EXPECT_EQ(drag_along_axis(ray_through(origin + Eigen::Vector3f(0.1f, 0, 0)), ray_through(origin + Eigen::Vector3f(0.4f, 0, 0)), Eigen::Vector3f::Zero(), down),
+            Eigen::Vector3f::Zero());
+}
+
+TEST(Gizmo, APlaneDragStaysInThePlaneAndARingTurnsByTheAngleBetweenTheRays) {
+  const Eigen::Vector3f origin(0.0f, 0.0f, 1.0f);
+  const Eigen::Vector3f normal = Eigen::Vector3f(0.2f, 0.1f, 1.0f).normalized();
+  const Eigen::Vector3f a = origin + Eigen::Vector3f(1.0f, 0.0f, -0.2f), b = origin + Eigen::Vector3f(-0.5f, 0.8f, 0.05f);
+  const Eigen::Vector3f move = drag_in_plane(ray_through(a), ray_through(b), origin, normal);
+  EXPECT_LT(std::abs(move.dot(normal)), 1e-6f);
+  EXPECT_GT(move.norm(), 0.5f);
+
+  const Eigen::Vector3f centre(0.2f, -0.1f, 0.0f);
+  const float radius = 0.7f;
+  for (const double turn : {0.3, -1.2, 2.5}) {
+    const double start = 0.4;
+    const auto on_ring = [&](double angle) {
+      return Eigen::Vector3f(centre + radius * Eigen::Vector3f(static_cast<float>(std::cos(angle)), static_cast<float>(std::sin(angle)), 0.0f));
+    };
+    EXPECT_NEAR(drag_about_axis(ray_through(on_ring(start)), ray_through(on_ring(start + turn)), centre, Eigen::Vector3f::UnitZ()), turn, 1e-5);
+    // About -z the same move is the opposite turn.
+    EXPECT_NEAR(drag_about_axis(ray_through(on_ring(start)), ray_through(on_ring(start + turn)), centre, -Eigen::Vector3f::UnitZ()), -turn, 1e-5);
+  }
+}
+
+// An orthographic view down -z: a point's pixel is 100·(x, −y) plus an offset (y down).
+std::optional<Eigen::Vector2f> orthographic(const Eigen::Vector3f& p) { return Eigen::Vector2f(400.0f + 100.0f * p.x(), 300.0f - 100.0f * p.y()); }
+
+TEST(Gizmo, AnEdgeOnRingFollowsItsNearSide) {
+  // The x ring seen edge-on from +z: its near side (at +z) moves along −y for a positive turn,
+  // which is +y on screen (y down): 0.5 radians need 0.5 · 100 · radius pixels.
+  const double turn = drag_about_axis_edge_on(Eigen::Vector2f(0.0f, 25.0f), Eigen::Vector3f::Zero(), Eigen::Vector3f::UnitX(), 0.5f,
+                                              Eigen::Vector3f::UnitZ(), orthographic);
+  EXPECT_NEAR(turn, 0.5, 1e-3);
+  EXPECT_NEAR(drag_about_axis_edge_on(Eigen::Vector2f(40.0f, 0.0f), Eigen::Vector3f::Zero(), Eigen::Vector3f::UnitX(), 0.5f, Eigen::Vector3f::UnitZ(),
+                                      orthographic),
+              0.0, 1e-3)
+      << "a move across the ring's path does not turn it";
+}
+
+TEST(Gizmo, PartsAreFoundWhereTheyAreDrawnAndTheGizmoStaysInTheView) {
+  HandleGizmo gizmo;
+  const Eigen::Matrix3f axes = Eigen::Matrix3f::Identity();
+  gizmo.layout(orthographic, Eigen::Vector3f::Zero(), axes, 1.0f, GizmoMode::Move, Eigen::Vector2f(0, 0), Eigen::Vector2f(800, 600));
+  ASSERT_TRUE(gizmo.laid_out());
+  EXPECT_EQ(gizmo.length(), 1.0f);
+  EXPECT_EQ(gizmo.hit({480.0f, 302.0f}), GizmoPart::AxisX);  // along +x on screen
+  EXPECT_EQ(gizmo.hit({401.0f, 230.0f}), GizmoPart::AxisY);  // +y is up on screen
+  EXPECT_EQ(gizmo.hit({435.0f, 265.0f}), GizmoPart::PlaneXY);  // the square between x and y
+  EXPECT_EQ(gizmo.hit({400.0f, 300.0f}), GizmoPart::None);     // the centre: a free move
+  EXPECT_EQ(gizmo.hit({600.0f, 500.0f}), GizmoPart::None);
+  // Near the top edge, the gizmo shortens until its tips are inside.
+  gizmo.layout(orthographic, Eigen::Vector3f(0.0f, 2.5f, 0.0f), axes, 1.0f, GizmoMode::Move, Eigen::Vector2f(0, 0), Eigen::Vector2f(800, 600));
+  ASSERT_TRUE(gizmo.laid_out());
+  EXPECT_LT(gizmo.length(), 0.5f + 1e-6f);
+  EXPECT_GE(300.0f - 100.0f * (2.5f + gizmo.length()), 0.0f);
+  // Turned with the handle: a handle rotated 90° about z has its x axis pointing up the screen.
+  const Eigen::Matrix3f turned = Eigen::AngleAxisf(std::numbers::pi_v<float> / 2, Eigen::Vector3f::UnitZ()).toRotationMatrix();
+  gizmo.layout(orthographic, Eigen::Vector3f::Zero(), turned, 1.0f, GizmoMode::Move, Eigen::Vector2f(0, 0), Eigen::Vector2f(800, 600));
+  EXPECT_EQ(gizmo.hit({401.0f, 230.0f}), GizmoPart::AxisX);
+  gizmo.layout(orthographic, Eigen::Vector3f::Zero(), axes, 1.0f, GizmoMode::Rotate, Eigen::Vector2f(0, 0), Eigen::Vector2f(800, 600));
+  EXPECT_EQ(gizmo.hit({400.0f + 80.0f * std::cos(0.7f), 300.0f - 80.0f * std::sin(0.7f)}), GizmoPart::RingZ);  // the z ring, seen face-on
 }
 
 }  // namespace

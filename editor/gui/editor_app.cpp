@@ -104,7 +104,10 @@ constexpr std::pair<const char*, const char*> kShortcuts[] = {
     {"Tab", "next handle"},
     {"Ctrl+Delete", "remove the active handle"},
     {"G / R / S / T", "move / rotate / scale / twist the active handle"},
-    {"X / Y / Z / V", "twist axis x / y / z / view"},
+    {"X / Y / Z", "move or rotate: along / about that axis only (again: free)"},
+    {"Shift+X / Y / Z", "move in the plane normal to that axis"},
+    {"X / Y / Z / V (twist)", "twist axis x / y / z / view"},
+    {"Gizmo: axis / square / ring", "drag along the axis / in the plane / about the axis"},
     {"0", "reset the handles to rest"},
     {"A", "apply: the result becomes the rest shape"},
     {"Ctrl+Z / Ctrl+Shift+Z", "undo / redo"},
@@ -1329,13 +1332,27 @@ class EditorApp {
     if (pressed(GLFW_KEY_1)) tool_ = Tool::PaintRoi;
     if (pressed(GLFW_KEY_2)) tool_ = Tool::PaintFixed;
     if (pressed(GLFW_KEY_3)) tool_ = Tool::PaintHandle;
+    if (pressed(GLFW_KEY_G) || pressed(GLFW_KEY_R) || pressed(GLFW_KEY_S) || pressed(GLFW_KEY_T)) axis_lock_.reset();
     if (pressed(GLFW_KEY_G)) tool_ = Tool::Grab;
     if (pressed(GLFW_KEY_R)) tool_ = Tool::Rotate;
     if (pressed(GLFW_KEY_S)) tool_ = Tool::Scale;
     if (pressed(GLFW_KEY_T)) tool_ = Tool::Twist;
-    if (pressed(GLFW_KEY_X)) twist_axis_ = TwistAxis::X;
-    if (pressed(GLFW_KEY_Y)) twist_axis_ = TwistAxis::Y;
-    if (pressed(GLFW_KEY_Z)) twist_axis_ = TwistAxis::Z;
+    // X, Y, Z: the tool's axis. Move and rotate lock to it (pressed again: free; Shift: move in
+    // the plane normal to it), as in Blender; twist turns about it.
+    constexpr TwistAxis twist_axes[3] = {TwistAxis::X, TwistAxis::Y, TwistAxis::Z};
+    constexpr int axis_keys[3] = {GLFW_KEY_X, GLFW_KEY_Y, GLFW_KEY_Z};
+    for (int k = 0; k < 3; ++k) {
+      const bool plain = pressed(axis_keys[k]), shifted = pressed(axis_keys[k], GLFW_MOD_SHIFT);
+      if (!plain && !shifted) continue;
+      if (tool_ == Tool::Grab || tool_ == Tool::Rotate) {
+        const bool plane = shifted && tool_ == Tool::Grab;
+        const bool same = axis_lock_ == k && lock_plane_ == plane;
+        axis_lock_ = same ? std::nullopt : std::optional<int>(k);
+        lock_plane_ = plane;
+      } else if (plain) {
+        twist_axis_ = twist_axes[k];
+      }
+    }
     if (pressed(GLFW_KEY_E)) erase_ = !erase_;
     if (pressed(GLFW_KEY_Z, GLFW_MOD_ALT)) paint_through_ = !paint_through_;
     if (pressed(GLFW_KEY_L)) lasso_ = !lasso_;
@@ -1418,6 +1435,8 @@ class EditorApp {
       dragging_ = true;
       stroke_.clear();
       drag_cursor_ = mouse;
+      lay_out_gizmo();
+      gizmo_drag_ = gizmo_.hit({mouse.x, mouse.y});
       if (connected_armed_) {
         connected_armed_ = false;
         dragging_ = false;
@@ -1428,6 +1447,7 @@ class EditorApp {
     if (!dragging_) return;
     if (ImGui::IsMouseReleased(ImGuiMouseButton_Left) || !ImGui::IsMouseDown(ImGuiMouseButton_Left)) {
       dragging_ = false;
+      gizmo_drag_ = GizmoPart::None;
       if (is_paint_tool(tool_) && lasso_) paint_lasso();
       commit_action(is_paint_tool(tool_) ? std::string(erase_ ? "erase " : "paint ") + layer_name()
                                          : lowercase_first(tool_name(tool_)) + " " + std::to_string(document_->active_handle() + 1));
@@ -1531,14 +1551,44 @@ class EditorApp {
     const Eigen::Vector3f up = right.cross(forward);
     const Eigen::Vector3f centre = (pose.pivot + pose.shift).cast<float>();
     const float height = static_cast<float>(std::max(target_->extent().height, 1u)) / ImGui::GetIO().DisplayFramebufferScale.y;
+    const Ray from = cursor_ray(ImVec2(mouse.x - delta.x, mouse.y - delta.y)), to = cursor_ray(mouse);
+    // The constraint: a part of the gizmo pressed, else the axis (or plane) locked by X, Y, Z.
+    const Eigen::Matrix3f local = pose.rotation().toRotationMatrix().cast<float>();
+    std::optional<Eigen::Vector3f> along, normal, about;
+    if (gizmo_drag_ != GizmoPart::None) {
+      const Eigen::Vector3f axis_k = local.col(gizmo_axis(gizmo_drag_));
+      if (is_ring(gizmo_drag_)) about = axis_k;
+      else if (is_plane(gizmo_drag_)) normal = axis_k;
+      else along = axis_k;
+    } else if (axis_lock_) {
+      const Eigen::Vector3f axis_k = Eigen::Vector3f::Unit(*axis_lock_);
+      if (tool_ == Tool::Rotate) about = axis_k;
+      else if (lock_plane_) normal = axis_k;
+      else along = axis_k;
+    }
     switch (tool_) {
       case Tool::Grab: {
-        const float depth = std::max((centre - eye).dot(forward), 1e-6f);
-        const float world_per_pixel = 2.0f * depth * std::tan(0.5f * camera_.fov_y) / height;
-        shift += (world_per_pixel * (delta.x * right - delta.y * up)).cast<double>();
+        if (along) {
+          shift += drag_along_axis(from, to, centre, *along).cast<double>();
+        } else if (normal) {
+          shift += drag_in_plane(from, to, centre, *normal).cast<double>();
+        } else {
+          const float depth = std::max((centre - eye).dot(forward), 1e-6f);
+          const float world_per_pixel = 2.0f * depth * std::tan(0.5f * camera_.fov_y) / height;
+          shift += (world_per_pixel * (delta.x * right - delta.y * up)).cast<double>();
+        }
         break;
       }
       case Tool::Rotate: {
+        if (about) {
+          // Seen nearly edge-on, a ring's plane gives no stable intersection: follow its near side.
+          const double turn = std::abs(forward.dot(*about)) >= 0.3f
+                                  ? drag_about_axis(from, to, centre, *about)
+                                  : drag_about_axis_edge_on({delta.x, delta.y}, centre, *about, 0.8f * gizmo_.length(), -forward,
+                                                            [this](const Eigen::Vector3f& point) { return project_to_window(point); });
+          compose_rotation(axis, angle, about->cast<double>(), turn);
+          break;
+        }
         const ImVec2 pivot = project(centre);
         const double before = std::atan2(mouse.y - delta.y - pivot.y, mouse.x - delta.x - pivot.x);
         const double after = std::atan2(mouse.y - pivot.y, mouse.x - pivot.x);
@@ -1566,6 +1616,15 @@ class EditorApp {
     return Eigen::Vector3d::UnitZ();
   }
 
+  std::optional<Eigen::Vector2f> project_to_window(const Eigen::Vector3f& point) const {
+    const auto extent = target_->extent();
+    const Eigen::Vector4f clip =
+        camera_.view_projection(static_cast<float>(extent.width) / static_cast<float>(extent.height)) * Eigen::Vector4f(point.x(), point.y(), point.z(), 1.0f);
+    if (clip.w() <= 1e-6f) return std::nullopt;
+    const ImVec2 p = project(point);
+    return Eigen::Vector2f(p.x, p.y);
+  }
+
   ImVec2 project(const Eigen::Vector3f& point) const {
     const auto extent = target_->extent();
     const Eigen::Vector4f clip =
@@ -1577,7 +1636,7 @@ class EditorApp {
 
   void draw_overlays() {
     if (!document_ || view_only_screenshot()) return;
-    ImDrawList* draw = ImGui::GetForegroundDrawList();
+    ImDrawList* draw = ImGui::GetBackgroundDrawList();  // under the panel and the dialogs
     const ImVec2 mouse = ImGui::GetIO().MousePos;
     if (is_paint_tool(tool_)) {
       if (lasso_ && stroke_.size() > 1) draw->AddPolyline(stroke_.data(), static_cast<int>(stroke_.size()), IM_COL32(255, 230, 60, 255), 0, 1.5f);
@@ -1595,16 +1654,41 @@ class EditorApp {
     const HandleTransform& pose = document_->pose(h);
     const Eigen::Vector3f centre = (pose.pivot + pose.shift).cast<float>();
     const ImVec2 c = project(centre);
-    const float length = 0.08f * scene_size();
-    const ImU32 axis_colors[3] = {IM_COL32(230, 70, 70, 255), IM_COL32(80, 200, 80, 255), IM_COL32(80, 120, 240, 255)};
-    for (int k = 0; k < 3; ++k) {
-      const ImVec2 tip = project(centre + length * Eigen::Vector3f::Unit(k));
-      draw->AddLine(c, tip, axis_colors[k], 2.0f);
+    lay_out_gizmo();
+    // Under the panel and the dialogs: the background list.
+    ImDrawList* under = ImGui::GetBackgroundDrawList();
+    if (gizmo_.laid_out()) {
+      const GizmoPart lit = gizmo_drag_ != GizmoPart::None ? gizmo_drag_ : ImGui::GetIO().WantCaptureMouse ? GizmoPart::None : gizmo_.hit({mouse.x, mouse.y});
+      gizmo_.draw(under, lit);
+    } else {
+      under->AddCircle(c, 6.0f, IM_COL32(255, 255, 255, 255), 16, 2.0f);
     }
-    draw->AddCircle(c, 6.0f, IM_COL32(255, 255, 255, 255), 16, 2.0f);
-    char text[96];
-    std::snprintf(text, sizeof text, "%s  %.1f°  ×%.2f", tool_name(tool_), pose.angle * 180.0 / std::numbers::pi, pose.scale);
-    draw->AddText(ImVec2(c.x + 10, c.y + 8), IM_COL32(255, 255, 255, 255), text);
+    char text[128];
+    std::snprintf(text, sizeof text, "%s%s  %.1f°  ×%.2f", tool_name(tool_), axis_lock_text().c_str(), pose.angle * 180.0 / std::numbers::pi, pose.scale);
+    under->AddText(ImVec2(c.x + 10, c.y + 8), IM_COL32(255, 255, 255, 255), text);
+  }
+
+  // The gizmo of the active handle for the move and rotate tools: its axes turned with the
+  // handle, 8% of the scene long, kept inside the view.
+  void lay_out_gizmo() {
+    const int h = document_->active_handle();
+    if ((tool_ != Tool::Grab && tool_ != Tool::Rotate) || document_->handle_count() == 0 || document_->handle_size(h) == 0) {
+      gizmo_ = HandleGizmo{};
+      return;
+    }
+    const HandleTransform& pose = document_->pose(h);
+    const Eigen::Matrix3f axes = pose.rotation().toRotationMatrix().cast<float>();
+    const ImVec2 size = ImGui::GetIO().DisplaySize;
+    gizmo_.layout([this](const Eigen::Vector3f& point) { return project_to_window(point); }, (pose.pivot + pose.shift).cast<float>(), axes,
+                  0.08f * scene_size(), tool_ == Tool::Grab ? GizmoMode::Move : GizmoMode::Rotate, Eigen::Vector2f(kPanelWidth + 8.0f, 8.0f),
+                  Eigen::Vector2f(size.x - 8.0f, size.y - 8.0f));
+  }
+
+  std::string axis_lock_text() const {
+    if (!axis_lock_ || (tool_ != Tool::Grab && tool_ != Tool::Rotate)) return "";
+    const char* name[3] = {"x", "y", "z"};
+    if (tool_ == Tool::Rotate) return std::string(" about ") + name[*axis_lock_];
+    return lock_plane_ ? std::string(" in the plane normal to ") + name[*axis_lock_] : std::string(" along ") + name[*axis_lock_];
   }
 
   // ---- the drag benchmark ---------------------------------------------------------------------------
@@ -1772,6 +1856,10 @@ class EditorApp {
   bool quit_ = false;
   int exit_code_ = 0;
   bool paint_through_ = false;
+  HandleGizmo gizmo_;
+  GizmoPart gizmo_drag_ = GizmoPart::None;  // the part the current drag started on
+  std::optional<int> axis_lock_;            // X, Y, Z with the move and rotate tools
+  bool lock_plane_ = false;                 // Shift: the plane normal to the locked axis
   bool screenshot_requested_ = false;
   bool screenshot_with_panel_ = false;  // Shift+F12: the window as it looks, panel and dialogs too
   int screenshots_ = 0;
