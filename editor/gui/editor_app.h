@@ -32,7 +32,7 @@ struct EditorOptions {
   double benchmark_drag_seconds = 0.0;  // > 0: drag the first handle for this long, report, exit
   std::string benchmark_out;            // the benchmark's JSON report (also printed)
   std::string trace;                    // a timeline of the session, written at exit (trace.h)
-  TransferInputs transfer;              // a source or target given: start in transfer mode
+  TransferPaths transfer;              // a source or target given: start in transfer mode
 };
 
 // Runs until the window closes; returns the exit code. Throws UsageError or InputError for bad

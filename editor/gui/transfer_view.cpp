@@ -108,7 +108,7 @@ TransferView::~TransferView() {
 
 // ---- loading ------------------------------------------------------------------------------------
 
-void TransferView::open(const TransferInputs& inputs) {
+void TransferView::open(const TransferPaths& inputs) {
   if (worker_.joinable()) {
     error_ = "wait until the current work finishes";
     return;
@@ -164,7 +164,7 @@ void TransferView::open(const TransferInputs& inputs) {
 void TransferView::drop(const std::vector<std::string>& paths, const ImVec2& cursor) {
   if (paths.empty()) return;
   const ImVec2 scale = ImGui::GetIO().DisplayFramebufferScale;
-  TransferInputs inputs{source_path_, target_path_, expand_paths(poses_path_), markers_file_, source_column_};
+  TransferPaths inputs{source_path_, target_path_, expand_paths(poses_path_), markers_file_, source_column_};
   if (side_under(ImVec2(cursor.x * scale.x, cursor.y * scale.y)) == 1) {
     inputs.target = paths.front();
   } else {

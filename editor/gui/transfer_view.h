@@ -26,7 +26,8 @@ struct ImVec2;
 
 namespace hdeform::cli {
 
-struct TransferInputs {
+// The files transfer mode opens (paths, not yet read).
+struct TransferPaths {
   std::string source_rest;
   std::string target;
   std::vector<std::string> poses;  // paths; a name with * or ? is a pattern in its folder
@@ -43,7 +44,7 @@ class TransferView {
   TransferView& operator=(const TransferView&) = delete;
 
   // Starts reading the meshes, poses and markers on a worker thread.
-  void open(const TransferInputs& inputs);
+  void open(const TransferPaths& inputs);
   // A file dropped on the window at `cursor` (window coordinates): on the source's view it
   // becomes the source rest (and further files its poses), on the target's view the target.
   void drop(const std::vector<std::string>& paths, const ImVec2& cursor);
