@@ -106,7 +106,11 @@ void ProfilerPanel::add_frame(double cpu_ms, double device_ms) { frames_.add({cp
 
 void ProfilerPanel::draw(bool& open) const {
   if (!open) return;
-  ImGui::SetNextWindowSize(ImVec2(620, 400), ImGuiCond_FirstUseEver);
+  // At first in the bottom right corner: clear of the side panel and of the help list.
+  const ImVec2 display = ImGui::GetIO().DisplaySize;
+  const ImVec2 size(620, 400);
+  ImGui::SetNextWindowPos(ImVec2(std::max(0.0f, display.x - 16.0f - size.x), std::max(0.0f, display.y - 16.0f - size.y)), ImGuiCond_FirstUseEver);
+  ImGui::SetNextWindowSize(size, ImGuiCond_FirstUseEver);
   if (ImGui::Begin("Profiler (P)", &open)) {
     draw_series(updates_);
     ImGui::Separator();
