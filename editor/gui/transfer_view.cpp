@@ -25,6 +25,7 @@ using Clock = std::chrono::steady_clock;
 double seconds_since(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
 
 constexpr float kMarkerPickPixels = 9.0f;  // a click this close to a marker takes the marker
+constexpr float kMarkerDotPixels = 4.0f;   // ... or only this close, when it would complete a pair
 const char* const kSideNames[2] = {"source", "target"};
 
 // Paths separated by white space; a name with * or ? expands to the matching files of its folder,
@@ -70,6 +71,7 @@ struct TransferView::Side {
   VkRect2D area{};
   const Eigen::MatrixXd* shown = nullptr;
   engine::RenderSettings settings;
+  engine::UpAxis up = engine::UpAxis::Z;  // each mesh its own: scans come Y-up or Z-up
 
   float aspect() const { return static_cast<float>(area.extent.width) / static_cast<float>(std::max(area.extent.height, 1u)); }
 };
@@ -191,7 +193,8 @@ void TransferView::install(std::unique_ptr<Loaded> loaded) {
     side->exchange = std::make_unique<engine::GeometryExchange>(static_cast<std::size_t>(side->rest.vertex_count()));
     side->publisher = std::make_unique<engine::GeometryPublisher>(*side->exchange, side->rest.triangles);
     side->renderer = std::make_unique<engine::MeshRenderer>(context_, render_pass_, format_, frames_in_flight_);
-    side->renderer->set_mesh(side->rest.triangles, *side->exchange, engine::Bounds::of(side->rest.positions), up_);
+    side->up = up_;
+    side->renderer->set_mesh(side->rest.triangles, *side->exchange, engine::Bounds::of(side->rest.positions), side->up);
     side->settings.legend = false;
     sides_[s] = std::move(side);
   }
@@ -306,7 +309,7 @@ void TransferView::publish_markers() {
 void TransferView::fit_cameras() {
   for (auto& side : sides_) {
     if (!side || side->area.extent.width == 0) continue;
-    side->camera = engine::Camera::three_quarter_front(engine::Bounds::of(side->rest.positions), up_, side->aspect());
+    side->camera = engine::Camera::three_quarter_front(engine::Bounds::of(side->rest.positions), side->up, side->aspect());
     side->camera_fitted = true;
   }
 }
@@ -319,7 +322,7 @@ void TransferView::prepare(uint32_t slot, VkExtent2D framebuffer, float panel_pi
   sides_[1]->area = {{left + static_cast<int32_t>(width / 2), 0}, {width - width / 2, framebuffer.height}};
   for (auto& side : sides_) {
     if (!side->camera_fitted && side->area.extent.width > 0) {
-      side->camera = engine::Camera::three_quarter_front(engine::Bounds::of(side->rest.positions), up_, side->aspect());
+      side->camera = engine::Camera::three_quarter_front(engine::Bounds::of(side->rest.positions), side->up, side->aspect());
       side->camera_fitted = true;
     }
     if (side->area.extent.width > 0 && side->area.extent.height > 0) side->renderer->prepare(slot, side->camera, side->settings, side->area);
@@ -375,9 +378,9 @@ std::optional<int> TransferView::pick_vertex(int side, const ImVec2& pixel) {
   return hit->vertex;
 }
 
-std::optional<std::size_t> TransferView::marker_near(int side, const ImVec2& pixel) const {
+std::optional<std::size_t> TransferView::marker_near(int side, const ImVec2& pixel, float reach_pixels) const {
   const auto& vertices = side == 0 ? markers_.pairs().source : markers_.pairs().target;
-  const float reach = kMarkerPickPixels * ImGui::GetIO().DisplayFramebufferScale.x;
+  const float reach = reach_pixels * ImGui::GetIO().DisplayFramebufferScale.x;
   std::optional<std::size_t> nearest;
   float best = reach;
   for (std::size_t k = 0; k < vertices.size(); ++k) {
@@ -462,7 +465,9 @@ void TransferView::handle_mouse() {
     return;
   }
   if (io.WantCaptureMouse || side < 0 || io.KeyAlt || !ImGui::IsMouseClicked(ImGuiMouseButton_Left)) return;
-  if (const auto near = marker_near(side, pixel)) {
+  // With a pair waiting for this side, a click completes it unless it lands on a marker's dot.
+  const bool completing = pending_ && pending_->side != side;
+  if (const auto near = marker_near(side, pixel, completing ? kMarkerDotPixels : kMarkerPickPixels)) {
     selected_ = static_cast<int>(*near);
     const auto& vertices = side == 0 ? markers_.pairs().source : markers_.pairs().target;
     drag_ = Drag{*near, side, vertices[*near]};
@@ -614,6 +619,21 @@ void TransferView::draw_panel(bool escape_pressed) {
   }
   ImGui::Text("source %ld vertices, %zu poses; target %ld vertices", static_cast<long>(sides_[0]->rest.vertex_count()), poses_.size(),
               static_cast<long>(sides_[1]->rest.vertex_count()));
+  for (int s = 0; s < 2; ++s) {
+    Side& side = *sides_[s];
+    int up = side.up == engine::UpAxis::Y ? 1 : 0;
+    ImGui::TextUnformatted(s == 0 ? "Source up:" : "Target up:");
+    ImGui::SameLine(100);
+    bool changed = ImGui::RadioButton((std::string("z##up") + std::to_string(s)).c_str(), &up, 0);
+    ImGui::SameLine();
+    changed |= ImGui::RadioButton((std::string("y##up") + std::to_string(s)).c_str(), &up, 1);
+    if (changed) {
+      side.up = up == 1 ? engine::UpAxis::Y : engine::UpAxis::Z;
+      side.renderer->set_mesh(side.rest.triangles, *side.exchange, engine::Bounds::of(side.rest.positions), side.up);
+      side.camera_fitted = false;  // framed again, standing up
+      publish_markers();
+    }
+  }
 
   ImGui::Separator();
   ImGui::TextDisabled("Markers");
@@ -632,6 +652,15 @@ void TransferView::draw_panel(bool escape_pressed) {
     copy_text(dialog_path_, sizeof dialog_path_, markers_path_);
     save_as_open_ = true;
   }
+  int labels = static_cast<int>(labels_);
+  ImGui::TextUnformatted("Numbers:");
+  ImGui::SameLine();
+  ImGui::RadioButton("selected", &labels, static_cast<int>(MarkerLabels::Selected));
+  ImGui::SameLine();
+  ImGui::RadioButton("all", &labels, static_cast<int>(MarkerLabels::All));
+  ImGui::SameLine();
+  ImGui::RadioButton("none", &labels, static_cast<int>(MarkerLabels::None));
+  labels_ = static_cast<MarkerLabels>(labels);
   ImGui::BeginChild("marker list", ImVec2(0, 120), true);
   for (std::size_t k = 0; k < markers_.size(); ++k) {
     const std::string label = std::to_string(k + 1) + ":  " + std::to_string(markers_.pairs().source[k]) + "  <->  " +
@@ -676,8 +705,11 @@ void TransferView::draw_panel(bool escape_pressed) {
     ImGui::SameLine();
     ImGui::SetNextItemWidth(120);
     ImGui::SliderFloat("fps", &frames_per_second_, 1.0f, 60.0f, "%.0f");
-    ImGui::SliderInt("Frame (-1: rest)", &frame_, -1, static_cast<int>(poses_.size()) - 1);
-    if (frame_ >= 0) ImGui::Text("%s", pose_names_[static_cast<std::size_t>(frame_)].c_str());
+    // Counted from 1, as the pose files are; 0 is the rest shape.
+    int pose = frame_ + 1;
+    if (ImGui::SliderInt("Pose (0: rest)", &pose, 0, static_cast<int>(poses_.size()))) frame_ = pose - 1;
+    if (frame_ >= 0) ImGui::Text("Pose %d of %zu: %s", frame_ + 1, poses_.size(), pose_names_[static_cast<std::size_t>(frame_)].c_str());
+    else ImGui::TextUnformatted("The rest shapes");
     ImGui::BeginDisabled(!computed_ || stale());
     if (ImGui::Button("Export sequence...")) export_open_ = true;
     ImGui::EndDisabled();
@@ -692,7 +724,7 @@ void TransferView::draw_panel(bool escape_pressed) {
 
 void TransferView::draw_overlays() {
   if (!sides_[0]) return;
-  ImDrawList* draw = ImGui::GetForegroundDrawList();
+  ImDrawList* draw = ImGui::GetBackgroundDrawList();  // under the panel and the dialogs
   const ImVec2 scale = ImGui::GetIO().DisplayFramebufferScale;
   auto window = [&](const ImVec2& pixel) { return ImVec2(pixel.x / scale.x, pixel.y / scale.y); };
   for (int s = 0; s < 2; ++s) {
@@ -702,13 +734,13 @@ void TransferView::draw_overlays() {
     draw->AddText(ImVec2(corner.x + 10, corner.y + 8), IM_COL32(40, 40, 40, 255), title.c_str());
     if (s == 1) draw->AddLine(corner, ImVec2(corner.x, corner.y + static_cast<float>(area.extent.height) / scale.y), IM_COL32(90, 90, 90, 255), 1.0f);
     const auto& vertices = s == 0 ? markers_.pairs().source : markers_.pairs().target;
-    if (vertices.size() <= 300) {
-      for (std::size_t k = 0; k < vertices.size(); ++k) {
-        const int vertex = drag_ && drag_->pair == k && drag_->side == s ? drag_->vertex : vertices[k];
-        const ImVec2 at = window(project(s, shown_positions(s).row(vertex).transpose()));
-        draw->AddText(ImVec2(at.x + 6, at.y - 14), IM_COL32(20, 20, 20, 255), std::to_string(k + 1).c_str());
-        if (static_cast<int>(k) == selected_) draw->AddCircle(at, 9.0f, IM_COL32(255, 255, 255, 255), 20, 2.5f);
-      }
+    for (std::size_t k = 0; k < vertices.size(); ++k) {
+      const bool selected = static_cast<int>(k) == selected_;
+      if (!selected && labels_ != MarkerLabels::All) continue;
+      const int vertex = drag_ && drag_->pair == k && drag_->side == s ? drag_->vertex : vertices[k];
+      const ImVec2 at = window(project(s, shown_positions(s).row(vertex).transpose()));
+      if (labels_ != MarkerLabels::None) draw->AddText(ImVec2(at.x + 6, at.y - 14), IM_COL32(20, 20, 20, 255), std::to_string(k + 1).c_str());
+      if (selected) draw->AddCircle(at, 9.0f, IM_COL32(255, 255, 255, 255), 20, 2.5f);
     }
     if (pending_ && pending_->side == s) {
       const ImVec2 at = window(project(s, shown_positions(s).row(pending_->vertex).transpose()));

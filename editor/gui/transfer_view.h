@@ -77,7 +77,7 @@ class TransferView {
   void export_sequence(const std::string& folder);
   int side_under(const ImVec2& pixel) const;
   std::optional<int> pick_vertex(int side, const ImVec2& pixel);
-  std::optional<std::size_t> marker_near(int side, const ImVec2& pixel) const;
+  std::optional<std::size_t> marker_near(int side, const ImVec2& pixel, float reach_pixels) const;
   ImVec2 project(int side, const Eigen::Vector3d& point) const;
   const Eigen::MatrixXd& shown_positions(int side) const;
   void add_or_complete(int side, int vertex);
@@ -102,6 +102,9 @@ class TransferView {
   };
   std::optional<Pending> pending_;
   int selected_ = -1;
+  // Which marker numbers are drawn: with a hundred pairs, all of them pile up unreadably.
+  enum class MarkerLabels { Selected, All, None };
+  MarkerLabels labels_ = MarkerLabels::Selected;
   struct Drag {
     std::size_t pair;
     int side;
