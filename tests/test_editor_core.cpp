@@ -1,3 +1,5 @@
+#include <nlohmann/json.hpp>
+
 #include <chrono>
 #include <fstream>
 #include <random>
@@ -6,6 +8,7 @@
 #include "document.h"
 #include "gui/recovery.h"
 #include "gui/restore_prompt.h"
+#include "transfer_state.h"
 #include "hdeform/engine/geometry_exchange.h"
 #include "hdeform/errors.h"
 #include "hdeform/shapes.h"
@@ -309,13 +312,13 @@ TEST(Recovery, ThePromptSaysWhatTheFileHoldsAndWhen) {
   test::TempDir dir;
   const auto recovery = dir.file("recovery.json");
   cli::write_session(recovery, session);
-  const cli::RestoreOffer same = cli::make_restore_offer(recovery, "/meshes/cactus.obj");
+  const cli::RestoreOffer same = cli::make_restore_offer(recovery, dir.file("none-transfer.json"), "/meshes/cactus.obj");
   EXPECT_EQ(same.mesh, session.mesh);
   EXPECT_FALSE(same.conflicts());
   EXPECT_TRUE(same.written.ends_with("less than a minute ago"));
-  EXPECT_FALSE(cli::make_restore_offer(recovery, "").conflicts());
-  EXPECT_TRUE(cli::make_restore_offer(recovery, "/meshes/bar.obj").conflicts());
-  EXPECT_TRUE(cli::make_restore_offer(recovery, "shape:bar").conflicts());
+  EXPECT_FALSE(cli::make_restore_offer(recovery, dir.file("none-transfer.json"), "").conflicts());
+  EXPECT_TRUE(cli::make_restore_offer(recovery, dir.file("none-transfer.json"), "/meshes/bar.obj").conflicts());
+  EXPECT_TRUE(cli::make_restore_offer(recovery, dir.file("none-transfer.json"), "shape:bar").conflicts());
 
   // Set aside, it keeps its contents under a new name, and a second one does not overwrite it.
   const auto first = cli::set_recovery_aside(recovery);
@@ -330,7 +333,56 @@ TEST(Recovery, ThePromptSaysWhatTheFileHoldsAndWhen) {
   EXPECT_EQ(first.parent_path(), recovery.parent_path());
 
   std::ofstream(recovery) << "{ not json";
-  EXPECT_THROW(cli::make_restore_offer(recovery, ""), InputError);
+  EXPECT_THROW(cli::make_restore_offer(recovery, dir.file("none-transfer.json"), ""), InputError);
+  std::filesystem::remove(recovery);
+  EXPECT_THROW(cli::make_restore_offer(recovery, dir.file("none-transfer.json"), ""), InputError) << "no recovery file at all";
+}
+
+// Transfer mode's recovery: every field comes back, a broken file is refused naming the file and
+// the field, and the prompt says what it holds; with only that file, the offer is transfer mode's.
+TEST(Recovery, TransferModeStateRoundTripsAndIsOffered) {
+  test::TempDir dir;
+  cli::TransferState state;
+  state.source_rest = "/meshes/horse-ref.obj";
+  state.target = "/meshes/camel-ref.obj";
+  state.poses = {"/meshes/horse-01.obj", "/meshes/horse-02.obj"};
+  state.markers_file = "/meshes/markers.txt";
+  state.source_column = 2;
+  state.markers.source = {3, 1, 4};
+  state.markers.target = {1, 5, 9};
+  state.source_y_up = true;
+  state.method = 1;
+  state.top_n = 5;
+  state.mismatch_threshold = 0.15;
+  const auto path = dir.file("recovery-transfer.json");
+  cli::write_transfer_state(path, state);
+  EXPECT_EQ(cli::read_transfer_state(path), state);
+  EXPECT_EQ(cli::describe_transfer_state(state), "horse-ref.obj -> camel-ref.obj, 2 poses, 3 marker pairs");
+
+  const cli::RestoreOffer offer = cli::make_restore_offer(dir.file("recovery.json"), path, "shape:bar");
+  EXPECT_TRUE(offer.recovery.empty());
+  EXPECT_EQ(offer.transfer_recovery, path);
+  EXPECT_EQ(offer.transfer, cli::describe_transfer_state(state));
+  EXPECT_FALSE(offer.conflicts()) << "no edit session to restore instead of the requested mesh";
+
+  const auto broken = [&](const std::string& text) {
+    std::ofstream(path) << text;
+    try {
+      cli::read_transfer_state(path);
+    } catch (const InputError& error) {
+      return std::string(error.what());
+    }
+    return std::string("accepted");
+  };
+  nlohmann::json json = nlohmann::json::parse(std::ifstream(path));
+  json["marker_target"] = {1, 5};
+  EXPECT_EQ(broken(json.dump()), path.string() + ": \"marker_source\" and \"marker_target\" differ in length");
+  json["marker_target"] = {1, 5, -9};
+  EXPECT_EQ(broken(json.dump()), path.string() + ": negative marker vertex -9");
+  json.erase("marker_target");
+  EXPECT_EQ(broken(json.dump()), path.string() + ": \"marker_target\" is missing");
+  EXPECT_EQ(broken("{\"hdeform_transfer_state\": 1, \"source_rest\": 7}"), path.string() + ": \"source_rest\" has the wrong type");
+  EXPECT_TRUE(broken("[1, 2").starts_with(path.string() + ": not JSON"));
 }
 
 TEST(MarkerEditor, PairsAddMoveRemoveWithUndoAndOneMarkerPerVertex) {

@@ -33,6 +33,7 @@
 #include "hdeform/shapes.h"
 #include "render_support.h"
 #include "session.h"
+#include "transfer_state.h"
 #include "test_support.h"
 #include "trace_checks.h"
 
@@ -586,10 +587,15 @@ TEST_F(EditorGui, RecoveryFileSurvivesKillNineAtRandomMoments) {
   EXPECT_FALSE(std::filesystem::exists(recovery_file)) << "a clean exit removes the recovery file";
 }
 
-// The panel's Move field (its x component) and Angle field, in window pixels: the panel lays
-// out from the top with ImGui's built-in font, whatever the window's size.
-const Eigen::Vector2f kMoveX{40.0f, 457.0f};
-const Eigen::Vector2f kAngle{110.0f, 503.0f};
+// Where the editor said its pose fields are: Move's x component, and the Angle field.
+struct PoseFieldPixels {
+  Eigen::Vector2f move_x, angle;
+};
+PoseFieldPixels pose_field_pixels(Editor& editor) {
+  const json fields = editor.wait_for("pose fields");
+  const float x = fields.value("x", 0.0f), y = fields.value("y", 0.0f), width = fields.value("width", 0.0f), row = fields.value("row", 0.0f);
+  return {{x + 0.15f * width, y + 0.4f * row}, {x + 0.5f * width, y + 2.4f * row}};
+}
 
 // Polls the recovery file until `holds` accepts its session (a write is atomic: never half a file).
 std::optional<cli::Session> recovery_holding(const std::filesystem::path& path, const std::function<bool(const cli::Session&)>& holds,
@@ -665,9 +671,10 @@ TEST_F(EditorGui, TypedValuesAreUndoableStepsAndReachTheRecoveryFile) {
   editor.wait_for("opened");
   ASSERT_NO_FATAL_FAILURE(find_window());
   EXPECT_EQ(editor.settled_solver_state(), "ready");
+  const PoseFieldPixels fields = pose_field_pixels(editor);
   // The panel's fields are single precision.
   const auto shift_x = [](const cli::Session& session) { return static_cast<float>(session.current.handles.at(0).transform.shift.x()); };
-  move_to(kMoveX);
+  move_to(fields.move_x);
   xdotool("click --repeat 2 --delay 60 1");
   xdotool("type --delay 60 0.1");
   press("Return");
@@ -678,7 +685,7 @@ TEST_F(EditorGui, TypedValuesAreUndoableStepsAndReachTheRecoveryFile) {
   ASSERT_TRUE(recovery_holding(recovery, [&](const cli::Session& s) { return shift_x(s) == 0.0f; }));
   press("ctrl+shift+z");
   ASSERT_TRUE(recovery_holding(recovery, [&](const cli::Session& s) { return shift_x(s) == 0.1f; }));
-  move_to(kAngle);
+  move_to(fields.angle);
   xdotool("click --repeat 2 --delay 60 1");
   xdotool("type --delay 60 10");
   press("Return");
@@ -707,7 +714,7 @@ TEST_F(EditorGui, AfterSigtermTheNextStartOffersTheSessionBesideTheRequestedMesh
     Editor editor(first);
     editor.wait_for("opened");
     ASSERT_NO_FATAL_FAILURE(find_window());
-    move_to(kMoveX);
+    move_to(pose_field_pixels(editor).move_x);
     xdotool("click --repeat 2 --delay 60 1");
     xdotool("type --delay 60 0.2");  // still in the field, not committed: the signal must keep it anyway
     std::this_thread::sleep_for(300ms);
@@ -764,6 +771,43 @@ TEST_F(EditorGui, DraggingTheGizmosXAxisMovesTheHandleAlongXOnly) {
   EXPECT_EQ(shift.z(), 0.0);
   EXPECT_NEAR(shift.x(), length, 0.35 * length);
   quit_discarding_changes(editor);
+}
+
+// Marker pairs clicked in transfer mode, never saved, survive kill -9: the next start restores
+// them on the same meshes.
+TEST_F(EditorGui, TransferModeMarkersSurviveKillNine) {
+  const std::vector<std::string> arguments{"--size", std::to_string(kWidth) + "x" + std::to_string(kHeight), "--recovery-file",
+                                           dir.file("recovery.json").string(), "--validation", "--transfer-source", dir.file("cactus.obj").string(),
+                                           "--transfer-target", dir.file("cactus.obj").string()};
+  const float view_width = (kWidth - kPanelWidth) / 2.0f;
+  {
+    std::vector<std::string> first = arguments;
+    first.insert(first.end(), {"--restore", "no"});
+    Editor editor(first);
+    editor.wait_for("transfer opened");
+    ASSERT_NO_FATAL_FAILURE(find_window());
+    const auto before = editor.event_count();
+    move_to({kPanelWidth + 0.5f * view_width, kHeight * 0.55f});  // the trunk, in each view
+    xdotool("click 1");
+    std::this_thread::sleep_for(250ms);
+    move_to({kPanelWidth + 1.5f * view_width, kHeight * 0.55f});
+    xdotool("click 1");
+    editor.wait_for("marker added", 30s, before);
+    const json written = editor.wait_for("transfer recovery", 30s, before);
+    EXPECT_EQ(written.value("markers", -1), 1);
+    editor.kill_now();
+  }
+  ASSERT_TRUE(std::filesystem::exists(dir.file("recovery-transfer.json")));
+  const cli::TransferState kept = cli::read_transfer_state(dir.file("recovery-transfer.json"));
+  ASSERT_EQ(kept.markers.size(), 1u);
+  std::vector<std::string> second = arguments;
+  second.insert(second.end(), {"--restore", "yes"});
+  Editor editor(second);
+  const json restored = editor.wait_for("transfer restored");
+  EXPECT_EQ(restored.value("markers", -1), 1);
+  ASSERT_NO_FATAL_FAILURE(find_window());
+  quit(editor);
+  EXPECT_FALSE(std::filesystem::exists(dir.file("recovery-transfer.json"))) << "a clean exit removes it";
 }
 
 TEST_F(EditorGui, TransferModeMarkersUndoSaveAndCompute) {

@@ -29,6 +29,7 @@
 #include "gui/profiler_panel.h"
 #include "gui/recovery.h"
 #include "gui/restore_prompt.h"
+#include "transfer_state.h"
 #include "gui/transfer_view.h"
 #include "gui/widgets.h"
 #include "hdeform/atomic_file.h"
@@ -207,7 +208,11 @@ class EditorApp {
       }
       if (trace::enabled()) trace::counter("resident memory (MB)", resident_mb());
     }
-    if (recovery_ && !keep_recovery_) recovery_->discard();
+    if (recovery_ && !keep_recovery_) {
+      recovery_->discard();
+      std::error_code ignored;
+      std::filesystem::remove(transfer_recovery_path(), ignored);
+    }
     if (!options_.trace.empty()) {
       trace::stop();
       try {
@@ -389,32 +394,77 @@ class EditorApp {
     }
     recovery_ = std::make_unique<RecoveryWriter>(options_.recovery_file.empty() ? default_recovery_path() : options_.recovery_file,
                                                  [](const Session& session) { print_json_line({{"event", "recovery"}, {"digest", session_digest(session)}}); });
-    if (std::filesystem::exists(recovery_->path())) {
-      if (options_.restore == "yes") return restore_recovery();
+    if (std::filesystem::exists(recovery_->path()) || std::filesystem::exists(transfer_recovery_path())) {
       if (options_.restore == "ask") return offer_restore();
-      std::error_code ignored;
-      std::filesystem::remove(recovery_->path(), ignored);
+      if (options_.restore == "yes") {
+        restore_transfer_mode();
+        if (std::filesystem::exists(recovery_->path())) return restore_recovery();
+        return start_requested_document();
+      }
+      remove_recovery_files();
     }
     start_requested_document();
+  }
+
+  // Transfer mode's recovery file, beside the session's.
+  std::filesystem::path transfer_recovery_path() const {
+    const auto& path = recovery_->path();
+    return path.parent_path() / (path.stem().string() + "-transfer.json");
+  }
+
+  void remove_recovery_files() {
+    std::error_code ignored;
+    std::filesystem::remove(recovery_->path(), ignored);
+    std::filesystem::remove(transfer_recovery_path(), ignored);
+  }
+
+  void restore_transfer_mode() {
+    if (!std::filesystem::exists(transfer_recovery_path())) return;
+    try {
+      transfer_->restore(read_transfer_state(transfer_recovery_path()));
+      set_mode(Mode::Transfer);
+    } catch (const std::exception& error) {
+      error_message_ = std::string("Transfer mode was not restored: ") + error.what();
+    }
+  }
+
+  // Transfer mode's state goes to its recovery file whenever it changes (small: written here).
+  void write_transfer_recovery() {
+    // Not while the question is open or a restore is loading: the file holds what is offered.
+    if (!recovery_ || restore_offer_ || transfer_->restoring() || transfer_->state_version() == transfer_recovery_version_) return;
+    transfer_recovery_version_ = transfer_->state_version();
+    const auto state = transfer_->state();
+    if (!state) return;
+    try {
+      std::filesystem::create_directories(transfer_recovery_path().parent_path());
+      write_transfer_state(transfer_recovery_path(), *state);
+      print_json_line({{"event", "transfer recovery"}, {"markers", state->markers.size()}});
+    } catch (const std::exception& error) {
+      std::cerr << "hdeform: warning: could not write the transfer recovery file: " << error.what() << '\n';
+    }
   }
 
   void offer_restore() {
     const std::string requested = !options_.session.empty() ? options_.session : options_.mesh;
     try {
-      restore_offer_ = make_restore_offer(recovery_->path(), requested);
+      restore_offer_ = make_restore_offer(recovery_->path(), transfer_recovery_path(), requested);
       print_json_line({{"event", "restore prompt"},
-                       {"recovery", recovery_->path().string()},
+                       {"recovery", restore_offer_->recovery.string()},
                        {"mesh", restore_offer_->mesh},
                        {"holds", restore_offer_->holds},
+                       {"transfer", restore_offer_->transfer},
                        {"requested", restore_offer_->requested}});
     } catch (const std::exception& error) {
       // Nothing to offer, but nothing thrown away either.
       const std::string reason = error.what();
       std::string kept;
-      try {
-        kept = set_recovery_aside(recovery_->path()).string();
-      } catch (const std::exception& move_error) {
-        kept = recovery_->path().string() + " (it could not be moved: " + move_error.what() + ")";
+      for (const auto& path : {recovery_->path(), transfer_recovery_path()}) {
+        if (!std::filesystem::exists(path)) continue;
+        try {
+          kept += (kept.empty() ? "" : " and ") + set_recovery_aside(path).string();
+        } catch (const std::exception& move_error) {
+          kept += (kept.empty() ? "" : " and ") + path.string() + " (it could not be moved: " + move_error.what() + ")";
+        }
       }
       error_message_ = "The recovery file could not be read: " + reason + ". It is kept as " + kept + ".";
       print_json_line({{"event", "error"}, {"message", error_message_}});
@@ -427,20 +477,25 @@ class EditorApp {
     restore_offer_.reset();
     if (choice == RestoreChoice::Restore) {
       if (offer.conflicts()) after_open_note_ = offer.requested + " was not opened (Ctrl+O opens it).";
-      restore_recovery();
+      restore_transfer_mode();
+      if (!offer.recovery.empty()) restore_recovery();
+      else start_requested_document();
       return;
     }
     if (choice == RestoreChoice::OpenRequested) {
-      try {
-        const auto kept = set_recovery_aside(offer.recovery);
-        after_open_note_ = "The recovered session is kept as " + kept.string() + " (Ctrl+O opens it).";
-        print_json_line({{"event", "recovery kept"}, {"path", kept.string()}});
-      } catch (const std::exception& error) {
-        error_message_ = std::string("The recovery file could not be set aside: ") + error.what();
+      for (const auto& path : {offer.recovery, offer.transfer_recovery}) {
+        if (path.empty()) continue;
+        try {
+          const auto kept = set_recovery_aside(path);
+          after_open_note_ += std::string(after_open_note_.empty() ? "" : " ") + "The recovered " +
+                              (path == offer.recovery ? "session" : "transfer state") + " is kept as " + kept.string() + ".";
+          print_json_line({{"event", "recovery kept"}, {"path", kept.string()}});
+        } catch (const std::exception& error) {
+          error_message_ = std::string("The recovery file could not be set aside: ") + error.what();
+        }
       }
     } else {
-      std::error_code ignored;
-      std::filesystem::remove(offer.recovery, ignored);
+      remove_recovery_files();
     }
     start_requested_document();
   }
@@ -702,6 +757,7 @@ class EditorApp {
       dropped_paths_.clear();
     }
     transfer_->poll();
+    write_transfer_recovery();
     if (document_) {
       const auto before = document_->solver_state();
       document_->poll();
@@ -1061,6 +1117,7 @@ class EditorApp {
     if (document_->handle_count() == 0 || document_->handle_size(h) == 0) return;
     const HandleTransform& pose = document_->pose(h);
     PoseFields fields{pose.shift, pose.axis, pose.angle * 180.0 / std::numbers::pi, pose.scale};
+    announce_pose_fields();
     const PoseFieldsEdit edit = pose_fields(fields, 0.002f * scene_size());
     if (edit.changed) {
       document_->set_pose(h, fields.axis, fields.degrees * std::numbers::pi / 180.0, fields.scale, fields.shift);
@@ -1068,6 +1125,16 @@ class EditorApp {
       recovery_dirty_ = true;
     }
     if (edit.finished) commit_action("the pose of handle " + std::to_string(h + 1) + " typed");
+  }
+
+  // Where the pose fields are (Move, Axis, Angle, Scale: one row each), on stdout whenever that
+  // changes, for scripts that type into them.
+  void announce_pose_fields() {
+    const ImVec2 at = ImGui::GetCursorScreenPos();
+    const std::array<float, 4> layout{at.x, at.y, ImGui::CalcItemWidth(), ImGui::GetFrameHeightWithSpacing()};
+    if (layout == announced_pose_fields_) return;
+    announced_pose_fields_ = layout;
+    print_json_line({{"event", "pose fields"}, {"x", layout[0]}, {"y", layout[1]}, {"width", layout[2]}, {"row", layout[3]}});
   }
 
   void draw_dialogs() {
@@ -1284,7 +1351,11 @@ class EditorApp {
       recovery_->post(document_->session());
       recovery_->flush();
     }
-    keep_recovery_ = recovery_ && std::filesystem::exists(recovery_->path());
+    if (recovery_) {
+      transfer_recovery_version_ = ~std::uint64_t{0};  // written now, whatever was written before
+      write_transfer_recovery();
+    }
+    keep_recovery_ = recovery_ && (std::filesystem::exists(recovery_->path()) || std::filesystem::exists(transfer_recovery_path()));
     print_json_line({{"event", "signal"},
                      {"signal", signal == SIGTERM ? "SIGTERM" : signal == SIGINT ? "SIGINT" : "SIGHUP"},
                      {"recovery", keep_recovery_ ? recovery_->path().string() : ""}});
@@ -1847,7 +1918,8 @@ class EditorApp {
   std::vector<KeyPress> frame_keys_;   // this frame's
 
   bool show_help_ = false;
-  bool keep_recovery_ = false;  // quit by a signal: the recovery file is what the next start offers
+  bool keep_recovery_ = false;
+  std::uint64_t transfer_recovery_version_ = 0;  // the transfer state's version last written  // quit by a signal: the recovery file is what the next start offers
   std::optional<RestoreOffer> restore_offer_;  // the restore prompt is open
   std::string after_open_note_;                // said in the status line once the next document opens
   bool open_dialog_ = false;
@@ -1856,6 +1928,7 @@ class EditorApp {
   bool quit_ = false;
   int exit_code_ = 0;
   bool paint_through_ = false;
+  std::array<float, 4> announced_pose_fields_{};
   HandleGizmo gizmo_;
   GizmoPart gizmo_drag_ = GizmoPart::None;  // the part the current drag started on
   std::optional<int> axis_lock_;            // X, Y, Z with the move and rotate tools

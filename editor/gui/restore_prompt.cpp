@@ -2,8 +2,12 @@
 
 #include <imgui.h>
 
+#include <algorithm>
+
 #include "gui/recovery.h"
+#include "hdeform/errors.h"
 #include "session.h"
+#include "transfer_state.h"
 
 namespace hdeform::cli {
 namespace {
@@ -15,13 +19,24 @@ std::string absolute_name(const std::string& name) {
 
 }  // namespace
 
-RestoreOffer make_restore_offer(const std::filesystem::path& recovery, const std::string& requested) {
-  const Session session = read_session(recovery);
+RestoreOffer make_restore_offer(const std::filesystem::path& recovery, const std::filesystem::path& transfer_recovery,
+                                const std::string& requested) {
   RestoreOffer offer;
-  offer.recovery = recovery;
-  offer.mesh = session.mesh;
-  offer.holds = describe_session(session);
-  offer.written = describe_age(std::filesystem::last_write_time(recovery), std::filesystem::file_time_type::clock::now());
+  std::filesystem::file_time_type written = std::filesystem::file_time_type::min();
+  if (std::filesystem::exists(recovery)) {
+    const Session session = read_session(recovery);
+    offer.recovery = recovery;
+    offer.mesh = session.mesh;
+    offer.holds = describe_session(session);
+    written = std::filesystem::last_write_time(recovery);
+  }
+  if (std::filesystem::exists(transfer_recovery)) {
+    offer.transfer_recovery = transfer_recovery;
+    offer.transfer = describe_transfer_state(read_transfer_state(transfer_recovery));
+    written = std::max(written, std::filesystem::last_write_time(transfer_recovery));
+  }
+  if (offer.recovery.empty() && offer.transfer_recovery.empty()) throw InputError(recovery.string() + ": no recovery file");
+  offer.written = describe_age(written, std::filesystem::file_time_type::clock::now());
   offer.requested = absolute_name(requested);
   return offer;
 }
@@ -34,10 +49,13 @@ RestoreChoice restore_prompt(const RestoreOffer& offer, bool enter, bool escape)
   ImGui::PushTextWrapPos(ImGui::GetFontSize() * 40.0f);
   ImGui::TextUnformatted("hdeform did not close cleanly last time. Its recovery file was written at:");
   ImGui::BulletText("%s", offer.written.c_str());
-  ImGui::TextDisabled("%s", offer.recovery.string().c_str());
+  ImGui::TextDisabled("%s", (!offer.recovery.empty() ? offer.recovery : offer.transfer_recovery).string().c_str());
   ImGui::TextUnformatted("It holds:");
-  ImGui::BulletText("%s", offer.mesh.c_str());
-  ImGui::BulletText("%s", offer.holds.c_str());
+  if (!offer.recovery.empty()) {
+    ImGui::BulletText("%s", offer.mesh.c_str());
+    ImGui::BulletText("%s", offer.holds.c_str());
+  }
+  if (!offer.transfer.empty()) ImGui::BulletText("Transfer mode: %s", offer.transfer.c_str());
   if (offer.conflicts()) ImGui::TextDisabled("You asked for %s: restoring leaves it unopened (Ctrl+O opens it later).", offer.requested.c_str());
   ImGui::TextDisabled("Not restored, the recovery file is kept beside it, named by its time.");
   ImGui::PopTextWrapPos();

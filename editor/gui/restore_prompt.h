@@ -8,18 +8,21 @@
 namespace hdeform::cli {
 
 struct RestoreOffer {
-  std::filesystem::path recovery;
+  std::filesystem::path recovery;  // the edit session's ("" when only transfer mode left one)
   std::string mesh;       // the recovered session's mesh
   std::string holds;      // describe_session()
+  std::filesystem::path transfer_recovery;  // transfer mode's ("" when it left none)
+  std::string transfer;                     // describe_transfer_state()
   std::string written;    // describe_age()
   std::string requested;  // the mesh or session named on the command line ("": none)
   // Whether restoring leaves the requested file unopened (it names another mesh).
-  bool conflicts() const { return !requested.empty() && requested != mesh; }
+  bool conflicts() const { return !recovery.empty() && !requested.empty() && requested != mesh; }
 };
 
-// Reads the recovery file (InputError naming it when it cannot be read). `requested` is the
-// command line's mesh or session, as given.
-RestoreOffer make_restore_offer(const std::filesystem::path& recovery, const std::string& requested);
+// Reads the recovery files that exist (InputError naming one that cannot be read). `requested`
+// is the command line's mesh or session, as given.
+RestoreOffer make_restore_offer(const std::filesystem::path& recovery, const std::filesystem::path& transfer_recovery,
+                                const std::string& requested);
 
 enum class RestoreChoice { Undecided, Restore, OpenRequested, Discard };
 

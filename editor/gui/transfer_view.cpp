@@ -83,6 +83,7 @@ struct TransferView::Loaded {
   std::string target_path;
   std::vector<Eigen::MatrixXd> poses;
   std::vector<std::string> pose_names;
+  std::vector<std::string> pose_paths;
   std::optional<MarkerPairs> markers;
   std::string markers_path;
   int source_column = 1;
@@ -145,6 +146,7 @@ void TransferView::open(const TransferPaths& inputs) {
         }
         loaded->poses.push_back(std::move(pose.positions));
         loaded->pose_names.push_back(std::filesystem::path(path).stem().string());
+        loaded->pose_paths.push_back(path);
       }
       loaded->markers_path = inputs.markers;
       loaded->source_column = inputs.source_column;
@@ -200,8 +202,11 @@ void TransferView::install(std::unique_ptr<Loaded> loaded) {
   }
   poses_ = std::move(loaded->poses);
   pose_names_ = std::move(loaded->pose_names);
+  pose_paths_ = std::move(loaded->pose_paths);
   markers_ = MarkerEditor{};
   if (loaded->markers) markers_.replace(std::move(*loaded->markers));
+  ++settings_version_;
+  if (restoring_) apply_restored(*std::exchange(restoring_, std::nullopt));
   markers_path_ = loaded->markers_path;
   source_column_ = loaded->source_column;
   computed_.reset();
@@ -218,6 +223,70 @@ void TransferView::install(std::unique_ptr<Loaded> loaded) {
                    {"target", sides_[1]->path},
                    {"poses", poses_.size()},
                    {"markers", markers_.size()}});
+}
+
+std::optional<TransferState> TransferView::state() const {
+  if (!sides_[0]) return std::nullopt;
+  TransferState state;
+  state.source_rest = sides_[0]->path;
+  state.target = sides_[1]->path;
+  state.poses = pose_paths_;
+  state.markers_file = markers_path_;
+  state.source_column = source_column_;
+  state.markers = markers_.pairs();
+  state.source_y_up = sides_[0]->up == engine::UpAxis::Y;
+  state.target_y_up = sides_[1]->up == engine::UpAxis::Y;
+  state.method = method_;
+  state.top_n = top_n_;
+  state.mismatch_threshold = mismatch_threshold_;
+  return state;
+}
+
+void TransferView::restore(const TransferState& state) {
+  if (worker_.joinable()) {
+    // A load from the command line still running: the restored state supersedes it.
+    worker_.join();
+    work_done_ = false;
+    std::lock_guard lock(work_mutex_);
+    loaded_.reset();
+    finished_.reset();
+    work_error_.clear();
+  }
+  restoring_ = state;
+  // The markers come from the state, not from the markers file (which may be older).
+  open({state.source_rest, state.target, state.poses, "", state.source_column});
+}
+
+void TransferView::apply_restored(const TransferState& state) {
+  for (const auto* list : {&state.markers.source, &state.markers.target}) {
+    const Eigen::Index count = sides_[list == &state.markers.source ? 0 : 1]->rest.vertex_count();
+    for (const int vertex : *list) {
+      if (vertex >= count) {
+        error_ = "the recovered markers do not fit the meshes (vertex " + std::to_string(vertex) + "); the markers were not restored";
+        return;
+      }
+    }
+  }
+  markers_.replace(state.markers);
+  markers_path_ = state.markers_file;
+  copy_text(markers_file_, sizeof markers_file_, state.markers_file);
+  const bool y_up[2] = {state.source_y_up, state.target_y_up};
+  for (int s = 0; s < 2; ++s) set_up(s, y_up[s] ? engine::UpAxis::Y : engine::UpAxis::Z);
+  method_ = state.method;
+  top_n_ = state.top_n;
+  mismatch_threshold_ = static_cast<float>(state.mismatch_threshold);
+  publish_markers();
+  status_ = "Restored " + std::to_string(markers_.size()) + " marker pairs";
+  print_json_line({{"event", "transfer restored"}, {"markers", markers_.size()}});
+}
+
+void TransferView::set_up(int side, engine::UpAxis up) {
+  Side& view = *sides_[side];
+  if (view.up == up) return;
+  view.up = up;
+  view.renderer->set_mesh(view.rest.triangles, *view.exchange, engine::Bounds::of(view.rest.positions), view.up);
+  view.camera_fitted = false;  // framed again, standing up
+  ++settings_version_;
 }
 
 // ---- each frame ---------------------------------------------------------------------------------
@@ -239,6 +308,8 @@ void TransferView::poll() {
     work_what_.clear();
     if (!failure.empty()) {
       error_ = failure;
+      if (restoring_) error_ += " (the recovered transfer state was not restored)";
+      restoring_.reset();
       print_json_line({{"event", "error"}, {"message", failure}});
     }
     if (loaded) install(std::move(loaded));
@@ -628,9 +699,7 @@ void TransferView::draw_panel(bool escape_pressed) {
     ImGui::SameLine();
     changed |= ImGui::RadioButton((std::string("y##up") + std::to_string(s)).c_str(), &up, 1);
     if (changed) {
-      side.up = up == 1 ? engine::UpAxis::Y : engine::UpAxis::Z;
-      side.renderer->set_mesh(side.rest.triangles, *side.exchange, engine::Bounds::of(side.rest.positions), side.up);
-      side.camera_fitted = false;  // framed again, standing up
+      set_up(s, up == 1 ? engine::UpAxis::Y : engine::UpAxis::Z);
       publish_markers();
     }
   }
@@ -676,13 +745,13 @@ void TransferView::draw_panel(bool escape_pressed) {
 
   ImGui::Separator();
   ImGui::TextDisabled("Transfer");
-  ImGui::RadioButton("Correspondence (6)", &method_, 0);
+  if (ImGui::RadioButton("Correspondence (6)", &method_, 0)) ++settings_version_;
   ImGui::SameLine();
-  ImGui::RadioButton("Interpolation (7)", &method_, 1);
+  if (ImGui::RadioButton("Interpolation (7)", &method_, 1)) ++settings_version_;
   if (method_ == 0) {
-    ImGui::SliderInt("Top n (0: all)", &top_n_, 0, static_cast<int>(std::max<std::size_t>(markers_.size(), 3)));
+    if (ImGui::SliderInt("Top n (0: all)", &top_n_, 0, static_cast<int>(std::max<std::size_t>(markers_.size(), 3)))) ++settings_version_;
     if (top_n_ > 0 && top_n_ < 3) top_n_ = 3;
-    ImGui::SliderFloat("Mismatch beyond", &mismatch_threshold_, 0.01f, 1.0f, "%.3f");
+    if (ImGui::SliderFloat("Mismatch beyond", &mismatch_threshold_, 0.01f, 1.0f, "%.3f")) ++settings_version_;
   }
   ImGui::BeginDisabled(worker_.joinable() || markers_.size() < kMinimumMarkers);
   if (ImGui::Button("Compute (F5)")) start_compute();

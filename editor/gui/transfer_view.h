@@ -21,6 +21,7 @@
 #include "hdeform/mesh.h"
 #include "hdeform/transfer.h"
 #include "marker_editor.h"
+#include "transfer_state.h"
 
 struct ImVec2;
 
@@ -58,6 +59,14 @@ class TransferView {
   void prepare(uint32_t slot, VkExtent2D framebuffer, float panel_pixels);
   void record(VkCommandBuffer commands, uint32_t slot) const;
 
+  // What the mode holds, for the recovery file (nothing before meshes are loaded), and a number
+  // that changes whenever it does.
+  std::optional<TransferState> state() const;
+  std::uint64_t state_version() const { return markers_.version() + settings_version_; }
+  // Opens the state's files, then puts back its markers, up axes and settings.
+  void restore(const TransferState& state);
+  bool restoring() const { return restoring_.has_value(); }
+
   // Whether frames must keep coming (work in progress, playing).
   bool busy() const;
   // What runs in the background and for how long, for the progress overlay.
@@ -69,6 +78,8 @@ class TransferView {
   struct Computed;
 
   void install(std::unique_ptr<Loaded> loaded);
+  void apply_restored(const TransferState& state);
+  void set_up(int side, engine::UpAxis up);
   void start_compute();
   void show_frame(int frame);
   void publish_markers();
@@ -91,6 +102,9 @@ class TransferView {
 
   std::vector<Eigen::MatrixXd> poses_;
   std::vector<std::string> pose_names_;
+  std::vector<std::string> pose_paths_;
+  std::uint64_t settings_version_ = 0;       // loads, up axes, method and its settings
+  std::optional<TransferState> restoring_;  // applied when the load it started finishes
   MarkerEditor markers_;
   std::string markers_path_;
   int source_column_ = 1;
