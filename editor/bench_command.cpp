@@ -14,13 +14,13 @@
 #include "hdeform/update_pipeline.h"
 #ifdef HDEFORM_WITH_ENGINE
 #include "render_bench.h"
+#include "hdeform/stopwatch.h"
 #endif
 
 namespace hdeform::cli {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double since(Clock::time_point start) { return std::chrono::duration<double, std::milli>(Clock::now() - start).count(); }
 
 // Splits one handle into two by the median x of its vertices: the two-handle scenario.
 std::vector<std::vector<int>> split_by_x(const Mesh& mesh, std::vector<int> handle) {
@@ -68,7 +68,7 @@ class BenchCommand final : public BatchCommand {
 
     auto start = Clock::now();
     LoadedMesh loaded = load_mesh(source_);
-    const double read_ms = since(start);
+    const double read_ms = milliseconds_since(start);
     EditConstraints constraints;
     HandleTransform transform;
     if (!handle_path_.empty()) {
@@ -118,7 +118,7 @@ class BenchCommand final : public BatchCommand {
         const auto update_start = Clock::now();
         deformer.deform(step, positions);
         if (k == 0) continue;
-        samples.push_back(since(update_start));
+        samples.push_back(milliseconds_since(update_start));
         const auto& t = deformer.last_update();
         for (const auto& [name, value] : {std::pair{"field", t.field_ms}, {"maps", t.maps_ms}, {"targets", t.targets_ms},
                                           {"rhs", t.rhs_ms}, {"solve", t.solve_ms}, {"write", t.write_ms}}) {
@@ -179,7 +179,7 @@ class BenchCommand final : public BatchCommand {
           }
           const auto solve_start = Clock::now();
           blocks.solve(deformer.system().factor());
-          if (k > 0) samples.push_back(since(solve_start));
+          if (k > 0) samples.push_back(milliseconds_since(solve_start));
         }
         report["solve_xyz_ms"][name] = to_json(summarize(samples));
       }
@@ -235,7 +235,7 @@ class BenchCommand final : public BatchCommand {
         const HandleTransform step = transform.at_fraction(std::max(k, 1) / static_cast<double>(steps_));
         const auto start = Clock::now();
         deformer.deform(std::span(&step, 1), positions);
-        if (k > 0) samples[on ? 1 : 0].push_back(since(start));
+        if (k > 0) samples[on ? 1 : 0].push_back(milliseconds_since(start));
       }
       if (on) {
         events_on += trace::recorded_events() - events_before;
@@ -294,7 +294,7 @@ class BenchCommand final : public BatchCommand {
       int iterations = 0;
       const auto start = Clock::now();
       while (d.refinement_status().energy > 1.01 * converged && iterations < cap && d.refine(positions, 1) == 1) ++iterations;
-      return nlohmann::json{{"iterations", iterations}, {"ms", since(start)}, {"reached", d.refinement_status().energy <= 1.01 * converged}};
+      return nlohmann::json{{"iterations", iterations}, {"ms", milliseconds_since(start)}, {"reached", d.refinement_status().energy <= 1.01 * converged}};
     };
     for (const bool accelerate : {true, false}) {
       progress(std::string("refinement: convergence, ") + (accelerate ? "accelerated" : "plain"));

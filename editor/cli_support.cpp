@@ -1,3 +1,4 @@
+#include "hdeform/stopwatch.h"
 #include "cli_support.h"
 #include "hdeform/constraint_io.h"
 #include "hdeform/errors.h"
@@ -125,7 +126,7 @@ int SolverChoice::effective_threads() const {
 
 void Progress::operator()(std::string_view message) const {
   if (quiet_) return;
-  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+  const double seconds = seconds_since(start_);
   char stamp[32];
   std::snprintf(stamp, sizeof stamp, "[%6.2fs] ", seconds);
   std::cerr << "hdeform: " << stamp << message << '\n';

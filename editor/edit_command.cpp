@@ -13,6 +13,7 @@
 #include "session.h"
 #ifdef HDEFORM_WITH_ENGINE
 #include "render_support.h"
+#include "hdeform/stopwatch.h"
 #endif
 
 namespace hdeform::cli {
@@ -154,7 +155,7 @@ class EditCommand final : public BatchCommand {
       const auto start = std::chrono::steady_clock::now();
       deformer.deform(step_transforms, positions);
       if (refine_iterations > 0) refined_iterations += deformer.refine(positions, refine_iterations);
-      step_ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
+      step_ms.push_back(milliseconds_since(start));
     }
     if (session_refines) {
       progress("refining until converged, as the editor saves it");
@@ -163,7 +164,7 @@ class EditCommand final : public BatchCommand {
       for (std::size_t h = 0; h < transforms.size(); ++h) stage.handles.push_back({deformer.constraints().handles[h], transforms[h]});
       const auto start = std::chrono::steady_clock::now();
       positions = stage_result(deformer, stage);
-      step_ms.back() += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+      step_ms.back() += milliseconds_since(start);
       refine_iterations = deformer.refinement_status().iterations;
       refined_iterations = refine_iterations;
     }

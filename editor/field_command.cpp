@@ -9,6 +9,7 @@
 #include "hdeform/mesh_check.h"
 #ifdef HDEFORM_WITH_ENGINE
 #include "render_support.h"
+#include "hdeform/stopwatch.h"
 #endif
 
 namespace hdeform::cli {
@@ -64,7 +65,7 @@ class FieldCommand final : public BatchCommand {
     progress("solving the harmonic field");
     const auto start = std::chrono::steady_clock::now();
     const Eigen::VectorXd field = harmonic_field(system, partition);
-    const double field_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    const double field_ms = milliseconds_since(start);
     write_values(out_path_, field);
     nlohmann::json picture;
 #ifdef HDEFORM_WITH_ENGINE

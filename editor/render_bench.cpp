@@ -15,12 +15,12 @@
 #include "mesh_picker.h"
 #include "selection.h"
 #include "render_support.h"
+#include "hdeform/stopwatch.h"
 
 namespace hdeform::cli {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double since(Clock::time_point start) { return std::chrono::duration<double, std::milli>(Clock::now() - start).count(); }
 
 // Processor time of the whole process (all threads, the driver's included), milliseconds. Less
 // sensitive than wall time to other tenants of a shared machine.
@@ -66,7 +66,7 @@ nlohmann::json bench_rendering(const Mesh& mesh, const EditConstraints& constrai
     for (int k = 0; k < count; ++k) {
       engine::FrameSlots::Slot& slot = slots.begin();
       const auto now = Clock::now();
-      if (k >= static_cast<int>(slots.count())) intervals.push_back(std::chrono::duration<double, std::milli>(now - previous).count());
+      if (k >= static_cast<int>(slots.count())) intervals.push_back(milliseconds_between(previous, now));
       previous = now;
       renderer.prepare(slot.index, camera, shot.settings, target.extent());
       target.begin(slot.commands);
@@ -85,7 +85,7 @@ nlohmann::json bench_rendering(const Mesh& mesh, const EditConstraints& constrai
   for (int k = 0; k < 40; ++k) {
     const auto start = Clock::now();
     publisher.publish(k % 2 == 0 ? moved : mesh.positions);
-    publish_ms.push_back(since(start));
+    publish_ms.push_back(milliseconds_since(start));
   }
 
   run_frames(5);  // warm-up
@@ -108,7 +108,7 @@ nlohmann::json bench_rendering(const Mesh& mesh, const EditConstraints& constrai
   });
   const auto drag_start = Clock::now();
   const Summary dragging = run_frames(options.frames);
-  const double drag_seconds = since(drag_start) / 1000.0;
+  const double drag_seconds = seconds_since(drag_start);
   stop = true;
   solver.join();
 
@@ -118,10 +118,10 @@ nlohmann::json bench_rendering(const Mesh& mesh, const EditConstraints& constrai
   const auto& snapshot = *exchange.acquire();
   auto start = Clock::now();
   MeshPicker picker(mesh.triangles, snapshot.position_normal);
-  const double pick_build_ms = since(start);
+  const double pick_build_ms = milliseconds_since(start);
   start = Clock::now();
   picker.refit(snapshot.position_normal);
-  const double pick_refit_ms = since(start);
+  const double pick_refit_ms = milliseconds_since(start);
   std::vector<double> pick_ms;
   std::vector<double> brush_ms;
   int hits = 0;
@@ -132,12 +132,12 @@ nlohmann::json bench_rendering(const Mesh& mesh, const EditConstraints& constrai
                                   static_cast<float>(shot.width), static_cast<float>(shot.height));
       start = Clock::now();
       const auto hit = picker.pick(ray);
-      pick_ms.push_back(since(start));
+      pick_ms.push_back(milliseconds_since(start));
       if (!hit) continue;
       ++hits;
       start = Clock::now();
       const auto brushed = vertices_in_ball(snapshot.position_normal, hit->point, brush_radius);
-      brush_ms.push_back(since(start));
+      brush_ms.push_back(milliseconds_since(start));
     }
   }
 

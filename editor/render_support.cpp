@@ -8,6 +8,7 @@
 #include "cli_support.h"
 #include "hdeform/engine/image_io.h"
 #include "hdeform/engine/mesh_renderer.h"
+#include "hdeform/stopwatch.h"
 
 namespace hdeform::cli {
 namespace {
@@ -140,7 +141,7 @@ nlohmann::json render_png(const PictureOptions& options, std::span<const engine:
           {"width", picture.width},
           {"height", picture.height},
           {"validation_messages", context.validation_message_count()},
-          {"render_ms", std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count()}};
+          {"render_ms", milliseconds_since(start)}};
 }
 
 }  // namespace hdeform::cli

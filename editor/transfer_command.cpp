@@ -8,6 +8,7 @@
 #include "hdeform/errors.h"
 #include "hdeform/mesh_io.h"
 #include "transfer_support.h"
+#include "hdeform/stopwatch.h"
 
 namespace hdeform::cli {
 namespace {
@@ -102,7 +103,7 @@ class TransferCommand final : public BatchCommand {
       }
       per_pose.push_back(entry);
     }
-    const double total_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    const double total_ms = milliseconds_since(start);
 
     report["command"] = "transfer";
     report["poses"] = poses.size();

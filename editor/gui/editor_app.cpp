@@ -46,13 +46,12 @@
 #include "mesh_picker.h"
 #include "render_support.h"
 #include "selection.h"
+#include "hdeform/stopwatch.h"
 
 namespace hdeform::cli {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double seconds_since(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
-double milliseconds_between(Clock::time_point from, Clock::time_point to) { return std::chrono::duration<double, std::milli>(to - from).count(); }
 
 constexpr float kPanelWidth = 330.0f;
 constexpr double kRecoveryInterval = 3.0;  // seconds between periodic recovery writes
@@ -1819,7 +1818,7 @@ class EditorApp {
     if (events.empty()) return;
     // The newest move decides the pose (a 2 s back-and-forth); every move taken now is answered
     // by this request.
-    const double at = std::chrono::duration<double>(events.back() - benchmark_started_).count();
+    const double at = milliseconds_between(benchmark_started_, events.back()) / 1000.0;
     const auto pose = benchmark_target_.at_fraction(0.5 - 0.5 * std::cos(2.0 * std::numbers::pi * at / 2.0));
     document_->set_pose(0, pose.axis, pose.angle, pose.scale, pose.shift);
     note_pose_input(events);

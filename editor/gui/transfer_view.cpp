@@ -17,12 +17,12 @@
 #include "hdeform/errors.h"
 #include "hdeform/mesh_io.h"
 #include "mesh_picker.h"
+#include "hdeform/stopwatch.h"
 
 namespace hdeform::cli {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double seconds_since(Clock::time_point start) { return std::chrono::duration<double>(Clock::now() - start).count(); }
 
 constexpr float kMarkerPickPixels = 9.0f;  // a click this close to a marker takes the marker
 constexpr float kMarkerDotPixels = 4.0f;   // ... or only this close, when it would complete a pair

@@ -10,12 +10,12 @@
 #include <limits>
 
 #include "hdeform/rotation_fit.h"
+#include "hdeform/stopwatch.h"
 
 namespace hdeform::detail {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double milliseconds_since(Clock::time_point start) { return std::chrono::duration<double, std::milli>(Clock::now() - start).count(); }
 
 // Work is cut into chunks of this many items, the same for any number of threads; a sum is the
 // sum of its chunks' partial sums in chunk order.

@@ -17,14 +17,12 @@
 #include "hdeform/laplacian.h"
 #include "hdeform/poisson.h"
 #include "hdeform/trace.h"
+#include "hdeform/stopwatch.h"
 
 namespace hdeform {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double milliseconds_since(Clock::time_point start) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
-}
 
 using Message = tbb::flow::continue_msg;
 using Node = tbb::flow::continue_node<Message>;

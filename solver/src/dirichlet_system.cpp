@@ -3,6 +3,7 @@
 #include <tbb/parallel_for.h>
 
 #include <chrono>
+#include "hdeform/stopwatch.h"
 
 namespace hdeform {
 
@@ -31,7 +32,7 @@ DirichletSystem::DirichletSystem(const Eigen::SparseMatrix<double>& laplacian, c
   }
   const auto factor_start = std::chrono::steady_clock::now();
   factor_.factor(free_block, backend);
-  factor_ms_ = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - factor_start).count();
+  factor_ms_ = milliseconds_since(factor_start);
 
   row_of_vertex_.assign(n, -1);
   vertex_of_row_.assign(free.size(), -1);

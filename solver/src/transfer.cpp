@@ -17,12 +17,12 @@
 #include "hdeform/harmonic_coordinates.h"
 #include "hdeform/laplacian.h"
 #include "hdeform/poisson.h"
+#include "hdeform/stopwatch.h"
 
 namespace hdeform {
 namespace {
 
 using Clock = std::chrono::steady_clock;
-double milliseconds_since(Clock::time_point start) { return std::chrono::duration<double, std::milli>(Clock::now() - start).count(); }
 
 void check_markers(const std::vector<int>& vertices, Eigen::Index vertex_count, const char* mesh) {
   std::vector<int> first(static_cast<std::size_t>(vertex_count), -1);

@@ -3,6 +3,7 @@
 #include <chrono>
 
 #include "hdeform/trace.h"
+#include "hdeform/stopwatch.h"
 
 namespace hdeform {
 
@@ -86,7 +87,7 @@ void UpdatePipeline::run() {
         status = deformer_.refinement_status();
         converged = status.converged;
       }
-      const double elapsed = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+      const double elapsed = milliseconds_since(start);
       {
         const trace::Scope traced("publish", "pipeline");
         publish_(Result{positions_, request, elapsed, status});

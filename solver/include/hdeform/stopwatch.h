@@ -1,0 +1,16 @@
+#pragma once
+// Elapsed time, as every figure hdeform reports it: the steady clock, in milliseconds (or
+// seconds), one definition for the library, the commands and the editor.
+#include <chrono>
+
+namespace hdeform {
+
+using SteadyClock = std::chrono::steady_clock;
+
+inline double milliseconds_between(SteadyClock::time_point from, SteadyClock::time_point to) {
+  return std::chrono::duration<double, std::milli>(to - from).count();
+}
+inline double milliseconds_since(SteadyClock::time_point start) { return milliseconds_between(start, SteadyClock::now()); }
+inline double seconds_since(SteadyClock::time_point start) { return milliseconds_since(start) / 1000.0; }
+
+}  // namespace hdeform
