@@ -1,5 +1,7 @@
 #include "hdeform/stopwatch.h"
 #include "cli_support.h"
+
+#include <sstream>
 #include "hdeform/constraint_io.h"
 #include "hdeform/errors.h"
 #include "hdeform/trace.h"
@@ -35,7 +37,48 @@ void MeshSource::require() const {
   if (mesh_path.empty() && shape_name.empty()) throw UsageError("give --mesh FILE or --shape NAME");
 }
 
-std::string MeshSource::describe() const { return is_shape() ? "shape:" + shape_name : mesh_path; }
+std::string MeshSource::describe() const {
+  if (!is_shape()) return mesh_path;
+  return "shape:" + shape_name + (resolution > 0 ? ":" + std::to_string(resolution) : "");
+}
+
+MeshSource MeshSource::from_name(const std::string& name) {
+  MeshSource source;
+  if (!names_builtin_shape(name)) {
+    source.mesh_path = name;
+    return source;
+  }
+  const std::string spec = name.substr(6);
+  const auto colon = spec.find(':');
+  source.shape_name = spec.substr(0, colon);
+  if (!parse_shape(source.shape_name)) throw InputError("'" + name + "': unknown shape (cactus, bar, cylinder, sphere)");
+  if (colon != std::string::npos) {
+    const std::string digits = spec.substr(colon + 1);
+    std::size_t used = 0;
+    try {
+      source.resolution = std::stoi(digits, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (digits.empty() || used != digits.size() || source.resolution <= 0) {
+      throw InputError("'" + name + "': the resolution '" + digits + "' is not a positive number");
+    }
+  }
+  return source;
+}
+
+std::pair<unsigned, unsigned> parse_size(const std::string& text, const std::string& option, unsigned min_width, unsigned min_height,
+                                         unsigned max_side) {
+  unsigned width = 0, height = 0;
+  char separator = 0;
+  std::stringstream stream(text);
+  if (!(stream >> width >> separator >> height) || separator != 'x' || !stream.eof() || width < min_width || height < min_height ||
+      width > max_side || height > max_side) {
+    throw UsageError(option + " must be WIDTHxHEIGHT, from " + std::to_string(min_width) + "x" + std::to_string(min_height) + " to " +
+                     std::to_string(max_side) + "x" + std::to_string(max_side) + " (got '" + text + "')");
+  }
+  return {width, height};
+}
 
 LoadedMesh load_mesh(const MeshSource& source) {
   LoadedMesh loaded;

@@ -37,7 +37,18 @@ struct MeshSource {
   void require() const;
   bool is_shape() const { return !shape_name.empty(); }
   std::string describe() const;
+  // A mesh as sessions and the editor name it: "shape:NAME[:RESOLUTION]" or a file path. Throws
+  // InputError for an unknown shape or a resolution that is not a positive number.
+  static MeshSource from_name(const std::string& name);
 };
+
+// Whether a session's or the editor's mesh name is a built-in shape ("shape:...").
+inline bool names_builtin_shape(const std::string& name) { return name.starts_with("shape:"); }
+
+// "WIDTHxHEIGHT", each side in [min, max] (min_width, min_height below): for --size. Throws
+// UsageError naming `option` otherwise.
+std::pair<unsigned, unsigned> parse_size(const std::string& text, const std::string& option, unsigned min_width, unsigned min_height,
+                                         unsigned max_side);
 
 // A loaded mesh; for a built-in shape also its demo edit.
 struct LoadedMesh {

@@ -56,13 +56,7 @@ engine::UpAxis PictureOptions::up_axis() const {
 
 engine::Shot PictureOptions::shot(const engine::Bounds& bounds, uint32_t panels) const {
   engine::Shot shot;
-  unsigned width = 0, height = 0;
-  char separator = 0;
-  std::stringstream size_stream(size);
-  if (!(size_stream >> width >> separator >> height) || separator != 'x' || !size_stream.eof() || width == 0 || height == 0 ||
-      width > 16384 || height > 16384) {
-    throw UsageError("--size must be WIDTHxHEIGHT, each 1 to 16384 (got '" + size + "')");
-  }
+  auto [width, height] = parse_size(size, "--size", 1, 1, 16384);
   if (panels > 1 && width / panels == 0) throw UsageError("--size is too narrow for " + std::to_string(panels) + " panels");
   width /= std::max(panels, 1u);
   shot.width = width;

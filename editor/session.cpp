@@ -261,7 +261,7 @@ Session read_session(const std::filesystem::path& path, SessionSource* source_ou
     throw InputError(where + ": not valid JSON (" + (token.empty() ? what : "the number " + token + " is out of range") + ")");
   }
   Session session = session_from_json(value, source);
-  if (!session.mesh.starts_with("shape:")) {
+  if (!names_builtin_shape(session.mesh)) {
     const std::filesystem::path mesh(session.mesh);
     if (mesh.is_relative()) session.mesh = (path.parent_path() / mesh).lexically_normal().string();
   }
@@ -314,20 +314,12 @@ Mesh load_session_mesh(const Session& session, const SessionSource* session_sour
       throw InputError(session_source->where("/mesh") + ": the session's mesh: " + error.what());
     }
   }
-  if (session.mesh.starts_with("shape:")) {
-    MeshSource source;
-    const std::string spec = session.mesh.substr(6);
-    const auto colon = spec.find(':');
-    source.shape_name = spec.substr(0, colon);
-    if (colon != std::string::npos) {
-      try {
-        source.resolution = std::stoi(spec.substr(colon + 1));
-      } catch (const std::exception&) {
-        throw InputError("session mesh '" + session.mesh + "': the resolution is not a number");
-      }
+  if (names_builtin_shape(session.mesh)) {
+    try {
+      return load_mesh(MeshSource::from_name(session.mesh)).mesh;
+    } catch (const InputError& error) {
+      throw InputError(std::string("session mesh ") + error.what());
     }
-    if (!parse_shape(source.shape_name)) throw InputError("session mesh '" + session.mesh + "': unknown shape");
-    return load_mesh(source).mesh;
   }
   return read_obj(session.mesh);
 }

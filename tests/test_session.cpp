@@ -4,6 +4,7 @@
 #include "hdeform/deformer.h"
 #include "hdeform/errors.h"
 #include "hdeform/shapes.h"
+#include "cli_support.h"
 #include "session.h"
 #include "test_support.h"
 
@@ -23,6 +24,32 @@ Session demo_session(int resolution = 24) {
   session.current.handles.push_back(
       {shape.demo_constraints.handles[0], HandleTransform::about_pivot(Eigen::Vector3d(1, 0.2, 0), pivot, 1.3, 1.1, Eigen::Vector3d(0.0, -0.05, 0.02))});
   return session;
+}
+
+// The one reading of a mesh name ("shape:NAME[:RESOLUTION]" or a path) and of WIDTHxHEIGHT.
+TEST(Session, MeshNamesAndSizesAreReadOneWayEverywhere) {
+  const auto bar = cli::MeshSource::from_name("shape:bar:24");
+  EXPECT_EQ(bar.shape_name, "bar");
+  EXPECT_EQ(bar.resolution, 24);
+  EXPECT_EQ(bar.describe(), "shape:bar:24");
+  EXPECT_EQ(cli::MeshSource::from_name("shape:cactus").resolution, 0);
+  EXPECT_EQ(cli::MeshSource::from_name("/meshes/shape.obj").mesh_path, "/meshes/shape.obj");
+  EXPECT_FALSE(cli::MeshSource::from_name("/meshes/shape.obj").is_shape());
+  for (const char* bad : {"shape:nope", "shape:bar:", "shape:bar:x", "shape:bar:12x", "shape:bar:0", "shape:bar:-4"}) {
+    EXPECT_THROW(cli::MeshSource::from_name(bad), InputError) << bad;
+  }
+  cli::Session session;
+  session.mesh = "shape:bar:12x";
+  try {
+    cli::load_session_mesh(session);
+    ADD_FAILURE() << "accepted";
+  } catch (const InputError& error) {
+    EXPECT_EQ(std::string(error.what()), "session mesh 'shape:bar:12x': the resolution '12x' is not a positive number");
+  }
+  EXPECT_EQ(cli::parse_size("1280x800", "--size", 320, 240, 8192), std::pair(1280u, 800u));
+  for (const char* bad : {"1280x800x", "1280", "x800", "100x800", "1280 800", "9000x800", "1280x800 "}) {
+    EXPECT_THROW(cli::parse_size(bad, "--size", 320, 240, 8192), cli::UsageError) << bad;
+  }
 }
 
 TEST(Session, RoundTripsExactly) {

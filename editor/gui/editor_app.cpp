@@ -234,12 +234,7 @@ class EditorApp {
     if (!glfwInit()) throw engine::RenderError("cannot open a window (no display? set DISPLAY, or use hdeform render for pictures)");
     glfw_started_ = true;
     if (!glfwVulkanSupported()) throw engine::RenderError("the window system offers no Vulkan surface");
-    unsigned width = 1280, height = 800;
-    char separator = 0;
-    std::stringstream size(options_.size);
-    if (!(size >> width >> separator >> height) || separator != 'x' || width < 320 || height < 240 || width > 8192 || height > 8192) {
-      throw UsageError("--size must be WIDTHxHEIGHT, at least 320x240 (got '" + options_.size + "')");
-    }
+    const auto [width, height] = parse_size(options_.size, "--size", 320, 240, 8192);
     glfwWindowHint(GLFW_CLIENT_API, GLFW_NO_API);
     window_ = glfwCreateWindow(static_cast<int>(width), static_cast<int>(height), "hdeform", nullptr, nullptr);
     if (window_ == nullptr) throw engine::RenderError("cannot create a window");
@@ -521,15 +516,13 @@ class EditorApp {
       Session session;
       session.current.refine = options.refine;
       session.mesh = options.mesh.empty() ? "shape:cactus" : options.mesh;
-      if (!session.mesh.starts_with("shape:")) session.mesh = std::filesystem::absolute(session.mesh).lexically_normal().string();
-      Mesh mesh = load_session_mesh(session);
-      if (options.mesh.empty() || (options.handles.empty() && session.mesh.starts_with("shape:"))) {
+      if (!names_builtin_shape(session.mesh)) session.mesh = std::filesystem::absolute(session.mesh).lexically_normal().string();
+      LoadedMesh loaded = load_mesh(MeshSource::from_name(session.mesh));
+      Mesh mesh = std::move(loaded.mesh);
+      if (loaded.demo_constraints && options.handles.empty()) {
         // A built-in shape starts with its demo's source and sink painted, ready to drag.
-        const auto spec = session.mesh.substr(6);
-        const auto shape = make_shape(*parse_shape(spec.substr(0, spec.find(':'))),
-                                      spec.find(':') == std::string::npos ? kDefaultShapeResolution : std::stoi(spec.substr(spec.find(':') + 1)));
-        session.current.fixed = shape.demo_constraints.fixed;
-        session.current.handles.push_back({shape.demo_constraints.handles[0], pose_for(shape.demo_constraints.handles[0], mesh, {})});
+        session.current.fixed = loaded.demo_constraints->fixed;
+        session.current.handles.push_back({loaded.demo_constraints->handles[0], pose_for(loaded.demo_constraints->handles[0], mesh, {})});
       }
       if (!options.fixed.empty()) session.current.fixed = read_vertex_list(options.fixed, mesh.vertex_count(), "the fixed vertices are the sinks");
       if (!options.roi.empty()) {
@@ -633,11 +626,11 @@ class EditorApp {
     brush_radius_ = 0.03f * bounds.radius() * 2.0f;
     view_dirty_ = true;
     shown_tag_ = 0;
-    if (options_.output.empty() && !mesh_name_.starts_with("shape:")) {
+    if (options_.output.empty() && !names_builtin_shape(mesh_name_)) {
       std::filesystem::path output(mesh_name_);
       output_path_ = (output.parent_path() / (output.stem().string() + "-edited.obj")).string();
     } else if (options_.output.empty()) {
-      output_path_ = (std::filesystem::current_path() / (mesh_name_.substr(6, mesh_name_.find(':', 6) - 6) + "-edited.obj")).string();
+      output_path_ = (std::filesystem::current_path() / (MeshSource::from_name(mesh_name_).shape_name + "-edited.obj")).string();
     } else {
       output_path_ = options_.output;
     }
@@ -679,7 +672,7 @@ class EditorApp {
     start_load([path, refine = options_.refine] {
       Session session;
       session.current.refine = refine;
-      session.mesh = path.starts_with("shape:") ? path : std::filesystem::absolute(path).lexically_normal().string();
+      session.mesh = names_builtin_shape(path) ? path : std::filesystem::absolute(path).lexically_normal().string();
       return std::pair{session, load_session_mesh(session)};
     });
   }
@@ -1192,8 +1185,8 @@ class EditorApp {
   // last asked for, else the working folder.
   void request_open() {
     std::vector<std::filesystem::path> candidates;
-    if (!mesh_name_.empty() && !mesh_name_.starts_with("shape:")) candidates.emplace_back(mesh_name_);
-    if (!last_open_request_.empty() && !last_open_request_.starts_with("shape:")) candidates.push_back(std::filesystem::absolute(last_open_request_).parent_path());
+    if (!mesh_name_.empty() && !names_builtin_shape(mesh_name_)) candidates.emplace_back(mesh_name_);
+    if (!last_open_request_.empty() && !names_builtin_shape(last_open_request_)) candidates.push_back(std::filesystem::absolute(last_open_request_).parent_path());
     candidates.push_back(std::filesystem::current_path());
     std::string start;
     for (const auto& candidate : candidates) {

@@ -6,6 +6,7 @@
 
 #include "gui/recovery.h"
 #include "hdeform/errors.h"
+#include "cli_support.h"
 #include "session.h"
 #include "transfer_state.h"
 
@@ -13,7 +14,7 @@ namespace hdeform::cli {
 namespace {
 
 std::string absolute_name(const std::string& name) {
-  if (name.empty() || name.starts_with("shape:")) return name;
+  if (name.empty() || names_builtin_shape(name)) return name;
   return std::filesystem::absolute(name).lexically_normal().string();
 }
 
