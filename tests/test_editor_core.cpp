@@ -6,6 +6,7 @@
 #include <thread>
 
 #include "document.h"
+#include "gui/frame_statistics.h"
 #include "gui/recovery.h"
 #include "gui/restore_prompt.h"
 #include "transfer_state.h"
@@ -383,6 +384,35 @@ TEST(Recovery, TransferModeStateRoundTripsAndIsOffered) {
   EXPECT_EQ(broken(json.dump()), path.string() + ": \"marker_target\" is missing");
   EXPECT_EQ(broken("{\"hdeform_transfer_state\": 1, \"source_rest\": 7}"), path.string() + ": \"source_rest\" has the wrong type");
   EXPECT_TRUE(broken("[1, 2").starts_with(path.string() + ": not JSON"));
+}
+
+// The editor's live figures against a timeline worked out by hand.
+TEST(FrameStatistics, LatencyRunsFromEachInputToTheFirstFinishedFrameShowingItsSolve) {
+  using namespace std::chrono_literals;
+  cli::FrameStatistics statistics;
+  const auto t0 = cli::FrameStatistics::Clock::now();
+  const cli::FrameStatistics::Clock::time_point first[] = {t0, t0 + 5ms};
+  const cli::FrameStatistics::Clock::time_point second[] = {t0 + 10ms};
+  statistics.note_request(1, first);
+  statistics.note_request(2, second);
+  statistics.note_submitted(1, 0, true, t0 + 12ms);  // after an idle wait: no interval
+  statistics.note_submitted(2, 1, false, t0 + 20ms);
+  statistics.note_submitted(3, 2, false, t0 + 30ms);
+  statistics.note_finished(1, t0 + 15ms);
+  EXPECT_TRUE(statistics.latencies().empty()) << "frame 1 shows no solve yet";
+  EXPECT_TRUE(statistics.frame_intervals().empty());
+  statistics.note_finished(2, t0 + 25ms);
+  statistics.note_finished(3, t0 + 40ms);
+  EXPECT_EQ(statistics.latencies(), (std::vector<double>{25.0, 20.0, 30.0}));
+  EXPECT_EQ(statistics.frame_intervals(), (std::vector<double>{10.0, 15.0}));
+  EXPECT_EQ(statistics.frames_per_second(t0 + 40ms), 3u);
+  EXPECT_EQ(statistics.frames_per_second(t0 + 1025ms), 1u);
+  EXPECT_EQ(statistics.recent_update_ms(7.0), 7.0);
+  for (int k = 1; k <= 30; ++k) statistics.note_update(k);
+  EXPECT_EQ(statistics.recent_update_ms(7.0), 21.0);  // the median of the last 20: 11..30
+  statistics.restart();
+  EXPECT_TRUE(statistics.latencies().empty());
+  EXPECT_TRUE(statistics.frame_intervals().empty());
 }
 
 TEST(MarkerEditor, PairsAddMoveRemoveWithUndoAndOneMarkerPerVertex) {

@@ -23,6 +23,7 @@
 
 #include "cli_support.h"
 #include "document.h"
+#include "gui/frame_statistics.h"
 #include "gui/gizmo.h"
 #include "gui/input_queue.h"
 #include "gui/pose_editor.h"
@@ -695,7 +696,7 @@ class EditorApp {
     while (!quit_ && !slots_->next_ready(std::chrono::milliseconds(1))) take_input_while_waiting();
     if (!latch_solves_ || unposted_events_.empty()) return;
     const std::uint64_t request = post_pending_solve();
-    const double latch_ms = std::min(2.0 * recent_median(update_times_, 10.0) + 2.0, kMaxLatchMs);
+    const double latch_ms = std::min(2.0 * statistics_.recent_update_ms(10.0) + 2.0, kMaxLatchMs);
     const auto latch_end = Clock::now() + std::chrono::microseconds(static_cast<long>(latch_ms * 1000.0));
     while (!quit_ && request > 0 && document_->last_published_request() < request && Clock::now() < latch_end) {
       glfwWaitEventsTimeout(0.001);
@@ -729,12 +730,6 @@ class EditorApp {
     return request;
   }
 
-  static double recent_median(const std::deque<double>& values, double fallback) {
-    if (values.empty()) return fallback;
-    std::vector<double> recent(values.end() - static_cast<std::ptrdiff_t>(std::min<std::size_t>(values.size(), 20)), values.end());
-    std::nth_element(recent.begin(), recent.begin() + static_cast<std::ptrdiff_t>(recent.size() / 2), recent.end());
-    return recent[recent.size() / 2];
-  }
 
   void step() {
     const std::vector<InputEvent> events = input_.take_frame();
@@ -825,8 +820,7 @@ class EditorApp {
   void render(ImDrawData* draw_data) {
     if (document_ && document_->last_update_ms() != last_update_seen_) {
       last_update_seen_ = document_->last_update_ms();
-      update_times_.push_back(last_update_seen_);
-      if (update_times_.size() > 100) update_times_.pop_front();
+      statistics_.note_update(last_update_seen_);
     }
     engine::FrameSlots::Slot& slot = slots_->begin();
     const auto now = Clock::now();
@@ -848,12 +842,9 @@ class EditorApp {
     target_->end(slot.commands, image, screenshot);
     const std::uint64_t frame = slots_->submit(slot, slot.image_available, target_->render_finished(image));
     last_submitted_frame_ = frame;
-    frame_tags_.push_back({frame, shown_tag_, waited_idle_});
+    statistics_.note_submitted(frame, shown_tag_, waited_idle_, now);
     waited_idle_ = false;
-    if (frame_tags_.size() > 64) frame_tags_.pop_front();
     target_->present(image);
-    frame_times_.push_back(now);
-    while (!frame_times_.empty() && seconds_since(frame_times_.front()) > 1.0) frame_times_.pop_front();
     if (screenshot) {
       slots_->wait_all();
       write_screenshot(target_->read_last_image());
@@ -891,26 +882,7 @@ class EditorApp {
   // frame cadence while the loop runs without idling, and for the first frame that shows a
   // request's result, the latency from the input event that caused it.
   void note_finished_frames() {
-    for (const auto& completion : slots_->take_completions()) {
-      std::uint64_t tag = 0;
-      bool after_idle = true;
-      for (const auto& record : frame_tags_) {
-        if (record.frame != completion.frame) continue;
-        tag = record.tag;
-        after_idle = record.after_idle;
-      }
-      if (frame_previous_.time_since_epoch().count() != 0 && !after_idle) {
-        frame_intervals_.push_back(milliseconds_between(frame_previous_, completion.time));
-        if (frame_intervals_.size() > 600) frame_intervals_.pop_front();
-      }
-      frame_previous_ = completion.time;
-      // Every input answered by this frame's solve or an earlier one is now on screen.
-      while (!pending_requests_.empty() && pending_requests_.front().first <= tag) {
-        latencies_.push_back(milliseconds_between(pending_requests_.front().second, completion.time));
-        if (latencies_.size() > 4000) latencies_.pop_front();
-        pending_requests_.pop_front();
-      }
-    }
+    for (const auto& completion : slots_->take_completions()) statistics_.note_finished(completion.frame, completion.time);
   }
 
   bool view_only_screenshot() const { return screenshot_requested_ && !screenshot_with_panel_; }
@@ -955,9 +927,9 @@ class EditorApp {
       if (const DeformerTimings* timings = document_->setup_timings()) ImGui::Text("Factorization: %.1f ms", timings->factor_ms);
       else ImGui::TextDisabled("Factorization: -");
       ImGui::Text("Last update: %.2f ms", document_->last_update_ms());
-      ImGui::Text("Frames: %zu per second", frame_times_.size());
-      ImGui::Text("Frame: %s", percentile_text({frame_intervals_.begin(), frame_intervals_.end()}).c_str());
-      ImGui::Text("Input to screen: %s", percentile_text({latencies_.begin(), latencies_.end()}).c_str());
+      ImGui::Text("Frames: %zu per second", statistics_.frames_per_second(Clock::now()));
+      ImGui::Text("Frame: %s", percentile_text(statistics_.frame_intervals()).c_str());
+      ImGui::Text("Input to screen: %s", percentile_text(statistics_.latencies()).c_str());
     }
     ImGui::TextWrapped("%s", status_.c_str());
     if (!error_message_.empty()) {
@@ -1307,8 +1279,7 @@ class EditorApp {
     if (!document_) return 0;
     const std::uint64_t request = document_->request_update();
     if (request == 0) return 0;
-    for (const auto& event : events) pending_requests_.emplace_back(request, event);
-    while (pending_requests_.size() > 4000) pending_requests_.pop_front();
+    statistics_.note_request(request, events);
     return request;
   }
   std::uint64_t post_request(Clock::time_point event_time) { return post_request(std::span(&event_time, 1)); }
@@ -1773,10 +1744,7 @@ class EditorApp {
       }
       document_->set_active_handle(0);
       benchmark_started_ = Clock::now();
-      frame_intervals_.clear();
-      latencies_.clear();
-      pending_requests_.clear();
-      frame_previous_ = {};
+      statistics_.restart();
       benchmark_input_ = std::thread([this] {
         const auto start = Clock::now();
         while (!benchmark_stop_) {
@@ -1821,8 +1789,8 @@ class EditorApp {
     benchmark_active_ = false;
     benchmark_done_ = true;
     const double seconds = seconds_since(benchmark_started_);
-    const std::vector<double> frames(frame_intervals_.begin(), frame_intervals_.end());
-    const std::vector<double> latencies(latencies_.begin(), latencies_.end());
+    const std::vector<double> frames = statistics_.frame_intervals();
+    const std::vector<double> latencies = statistics_.latencies();
     const auto extent = target_->extent();
     nlohmann::json report = {{"command", "gui --benchmark-drag"},
                              {"mesh", mesh_name_},
@@ -1932,27 +1900,16 @@ class EditorApp {
   Clock::time_point last_recovery_ = Clock::now();
 
   // Frame and latency figures.
-  struct FrameRecord {
-    std::uint64_t frame;  // as FrameSlots numbers them
-    std::uint64_t tag;    // the geometry it shows (the request it answers)
-    bool after_idle;      // the loop waited for events before it: its interval is not a frame time
-  };
-  std::deque<FrameRecord> frame_tags_;
-  bool waited_idle_ = false;
-  std::uint64_t shown_tag_ = 0;
+  FrameStatistics statistics_;
+  bool waited_idle_ = false;    // the loop waited for events before this frame
+  std::uint64_t shown_tag_ = 0;  // the geometry the frame shows (the request it answers)
   Clock::time_point last_input_ = Clock::now();
-  std::deque<Clock::time_point> frame_times_;
-  std::deque<double> frame_intervals_;
-  Clock::time_point frame_previous_{};
-  std::deque<std::pair<std::uint64_t, Clock::time_point>> pending_requests_;
-  std::deque<double> latencies_;
   std::vector<Clock::time_point> unposted_events_;  // inputs whose solve is not posted yet
   bool latch_solves_ = false;
   ProfilerPanel profiler_;
   bool show_profiler_ = false;
   std::deque<std::pair<std::uint64_t, double>> frame_work_;  // frame, processor milliseconds
   std::uint64_t last_submitted_frame_ = 0;
-  std::deque<double> update_times_;
   double last_update_seen_ = 0.0;
   bool benchmark_active_ = false;
   std::thread benchmark_input_;
