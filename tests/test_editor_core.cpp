@@ -8,6 +8,7 @@
 #include "document.h"
 #include "gui/frame_statistics.h"
 #include "gui/recovery.h"
+#include "gui/synthetic_drag.h"
 #include "gui/restore_prompt.h"
 #include "transfer_state.h"
 #include "hdeform/engine/geometry_exchange.h"
@@ -413,6 +414,27 @@ TEST(FrameStatistics, LatencyRunsFromEachInputToTheFirstFinishedFrameShowingItsS
   statistics.restart();
   EXPECT_TRUE(statistics.latencies().empty());
   EXPECT_TRUE(statistics.frame_intervals().empty());
+}
+
+TEST(SyntheticDrag, MovesComeInOrderAndThePoseGoesToTheTargetAndBackEveryTwoSeconds) {
+  const HandleTransform target = HandleTransform::about_pivot(Eigen::Vector3d::UnitX(), Eigen::Vector3d(0.1, 0.2, 0.3), 0.5, 1.0, Eigen::Vector3d(0, 0.4, 0));
+  EXPECT_TRUE(cli::SyntheticDrag::pose_at(target, 0.0).is_identity());
+  EXPECT_NEAR(cli::SyntheticDrag::pose_at(target, 1.0).angle, target.angle, 1e-12);
+  EXPECT_NEAR((cli::SyntheticDrag::pose_at(target, 1.0).shift - target.shift).norm(), 0.0, 1e-12);
+  EXPECT_NEAR(cli::SyntheticDrag::pose_at(target, 2.0).angle, 0.0, 1e-12);
+  EXPECT_NEAR(cli::SyntheticDrag::pose_at(target, 0.5).angle, 0.5 * target.angle, 1e-12);
+  std::atomic<int> wakes{0};
+  std::vector<cli::SyntheticDrag::Clock::time_point> moves;
+  {
+    cli::SyntheticDrag drag([&] { ++wakes; });
+    std::this_thread::sleep_for(std::chrono::milliseconds(120));
+    moves = drag.take();
+    drag.stop();
+    EXPECT_GE(moves.size(), 3u);
+    EXPECT_TRUE(std::is_sorted(moves.begin(), moves.end()));
+    EXPECT_GE(moves.front(), drag.started());
+  }
+  EXPECT_GE(wakes.load(), static_cast<int>(moves.size()));
 }
 
 TEST(MarkerEditor, PairsAddMoveRemoveWithUndoAndOneMarkerPerVertex) {

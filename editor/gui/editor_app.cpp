@@ -30,6 +30,7 @@
 #include "gui/profiler_panel.h"
 #include "gui/recovery.h"
 #include "gui/restore_prompt.h"
+#include "gui/synthetic_drag.h"
 #include "transfer_state.h"
 #include "gui/transfer_view.h"
 #include "gui/widgets.h"
@@ -184,7 +185,7 @@ class EditorApp {
         quit_on_signal(QuitSignals::received());
         break;
       }
-      const bool busy = !input_.empty() || dragging_ || loading_ || benchmark_active_ || screenshot_requested_ || (transfer_ && transfer_->busy()) ||
+      const bool busy = !input_.empty() || dragging_ || loading_ || benchmark_ || screenshot_requested_ || (transfer_ && transfer_->busy()) ||
                         (document_ && (document_->solver_state() == Document::SolverState::Building ||
                                        document_->last_published_request() != shown_tag_));
       if (busy) glfwPollEvents();
@@ -350,6 +351,7 @@ class EditorApp {
   }
 
   void shutdown() {
+    benchmark_.reset();  // its thread wakes the window system: stopped before that goes
     transfer_.reset();
     if (context_) vkDeviceWaitIdle(context_->device());
     document_.reset();  // stops its threads before the publisher goes
@@ -711,7 +713,7 @@ class EditorApp {
       glfwGetCursorPos(window_, &x, &y);
       continue_handle_drag(ImVec2(static_cast<float>(x), static_cast<float>(y)), last_input_);
     }
-    if (benchmark_active_) take_benchmark_input();
+    if (benchmark_) take_benchmark_input();
   }
 
   // A pose changed by input: posted now ("free"), or when the device is next free ("latch").
@@ -759,7 +761,7 @@ class EditorApp {
       if (document_->solver_state() == Document::SolverState::Building && build_started_ == Clock::time_point{}) build_started_ = Clock::now();
       if (document_->solver_state() != Document::SolverState::Building) build_started_ = {};
     }
-    if (benchmark_active_ || (options_.benchmark_drag_seconds > 0.0 && !benchmark_done_)) benchmark_step();
+    if (benchmark_ || (options_.benchmark_drag_seconds > 0.0 && !benchmark_done_)) benchmark_step();
 
     ImGui_ImplVulkan_NewFrame();
     ImGui_ImplGlfw_NewFrame();
@@ -1735,33 +1737,19 @@ class EditorApp {
   // that shows a solve including it.
   void benchmark_step() {
     if (!document_ || document_->solver_state() != Document::SolverState::Ready) return;
-    if (!benchmark_active_) {
-      benchmark_active_ = true;
+    if (!benchmark_) {
       benchmark_target_ = document_->pose(0);
       if (benchmark_target_.angle == 0.0 && benchmark_target_.shift.isZero()) {
         benchmark_target_ = HandleTransform::about_pivot(Eigen::Vector3d::UnitX(), benchmark_target_.pivot, 0.5, 1.0,
                                                          Eigen::Vector3d(0.0, 0.1 * scene_size(), 0.0));
       }
       document_->set_active_handle(0);
-      benchmark_started_ = Clock::now();
       statistics_.restart();
-      benchmark_input_ = std::thread([this] {
-        const auto start = Clock::now();
-        while (!benchmark_stop_) {
-          {
-            std::lock_guard lock(benchmark_mutex_);
-            benchmark_events_.push_back(Clock::now());
-          }
-          glfwPostEmptyEvent();
-          std::this_thread::sleep_until(start + std::chrono::milliseconds(10) * (1 + static_cast<long>(seconds_since(start) * 100.0)));
-        }
-      });
+      benchmark_ = std::make_unique<SyntheticDrag>([] { glfwPostEmptyEvent(); });
       return;
     }
-    const double elapsed = seconds_since(benchmark_started_);
-    if (elapsed > options_.benchmark_drag_seconds) {
-      benchmark_stop_ = true;
-      benchmark_input_.join();
+    if (seconds_since(benchmark_->started()) > options_.benchmark_drag_seconds) {
+      benchmark_->stop();
       slots_->wait_all();
       note_finished_frames();
       finish_benchmark();
@@ -1771,24 +1759,18 @@ class EditorApp {
   }
 
   void take_benchmark_input() {
-    std::vector<Clock::time_point> events;
-    {
-      std::lock_guard lock(benchmark_mutex_);
-      events.swap(benchmark_events_);
-    }
+    const std::vector<Clock::time_point> events = benchmark_->take();
     if (events.empty()) return;
-    // The newest move decides the pose (a 2 s back-and-forth); every move taken now is answered
-    // by this request.
-    const double at = milliseconds_between(benchmark_started_, events.back()) / 1000.0;
-    const auto pose = benchmark_target_.at_fraction(0.5 - 0.5 * std::cos(2.0 * std::numbers::pi * at / 2.0));
+    // The newest move decides the pose; every move taken now is answered by this request.
+    const auto pose = SyntheticDrag::pose_at(benchmark_target_, milliseconds_between(benchmark_->started(), events.back()) / 1000.0);
     document_->set_pose(0, pose.axis, pose.angle, pose.scale, pose.shift);
     note_pose_input(events);
   }
 
   void finish_benchmark() {
-    benchmark_active_ = false;
+    const double seconds = seconds_since(benchmark_->started());
+    benchmark_.reset();
     benchmark_done_ = true;
-    const double seconds = seconds_since(benchmark_started_);
     const std::vector<double> frames = statistics_.frame_intervals();
     const std::vector<double> latencies = statistics_.latencies();
     const auto extent = target_->extent();
@@ -1911,14 +1893,9 @@ class EditorApp {
   std::deque<std::pair<std::uint64_t, double>> frame_work_;  // frame, processor milliseconds
   std::uint64_t last_submitted_frame_ = 0;
   double last_update_seen_ = 0.0;
-  bool benchmark_active_ = false;
-  std::thread benchmark_input_;
-  std::atomic<bool> benchmark_stop_{false};
-  std::mutex benchmark_mutex_;
-  std::vector<Clock::time_point> benchmark_events_;
+  std::unique_ptr<SyntheticDrag> benchmark_;  // --benchmark-drag, while it runs
   bool benchmark_done_ = false;
   HandleTransform benchmark_target_;
-  Clock::time_point benchmark_started_;
 };
 
 }  // namespace
