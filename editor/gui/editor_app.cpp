@@ -23,6 +23,7 @@
 
 #include "cli_support.h"
 #include "document.h"
+#include "gui/background_task.h"
 #include "gui/frame_statistics.h"
 #include "gui/gizmo.h"
 #include "gui/input_queue.h"
@@ -185,7 +186,7 @@ class EditorApp {
         quit_on_signal(QuitSignals::received());
         break;
       }
-      const bool busy = !input_.empty() || dragging_ || loading_ || benchmark_ || screenshot_requested_ || (transfer_ && transfer_->busy()) ||
+      const bool busy = !input_.empty() || dragging_ || load_.running() || benchmark_ || screenshot_requested_ || (transfer_ && transfer_->busy()) ||
                         (document_ && (document_->solver_state() == Document::SolverState::Building ||
                                        document_->last_published_request() != shown_tag_));
       if (busy) glfwPollEvents();
@@ -355,7 +356,7 @@ class EditorApp {
     transfer_.reset();
     if (context_) vkDeviceWaitIdle(context_->device());
     document_.reset();  // stops its threads before the publisher goes
-    if (load_thread_.joinable()) load_thread_.join();
+    load_.abandon();
     publisher_.reset();
     if (imgui_vulkan_started_) ImGui_ImplVulkan_Shutdown();
     if (imgui_started_) {
@@ -499,7 +500,7 @@ class EditorApp {
 
   void restore_recovery() {
     const auto path = recovery_->path();
-    start_load([path] {
+    start_load("the recovered session", [path] {
       SessionSource source;
       Session session = read_session(path, &source);
       return std::pair{session, load_session_mesh(session, &source)};
@@ -510,7 +511,8 @@ class EditorApp {
   void start_requested_document() {
     const EditorOptions options = options_;
     last_open_request_ = !options.session.empty() ? options.session : options.mesh;
-    start_load([options] {
+    const std::string what = !options.session.empty() ? options.session : options.mesh.empty() ? std::string("the cactus") : options.mesh;
+    start_load(what, [options] {
       if (!options.session.empty()) {
         SessionSource source;
         Session session = read_session(options.session, &source);
@@ -554,30 +556,17 @@ class EditorApp {
   }
 
   template <class Load>
-  void start_load(Load load) {
-    if (load_thread_.joinable()) load_thread_.join();
-    loading_ = true;
-    load_started_ = Clock::now();
-    load_error_.clear();
-    loaded_.reset();
-    load_thread_ = std::thread([this, load] {
-      try {
-        auto [session, mesh] = load();
-        auto loaded = std::make_unique<Loaded>();
-        loaded->session = std::move(session);
-        loaded->mesh = std::move(mesh);
-        // Replaying applied stages and the checks run here, off the frame loop; the publisher is
-        // attached when the document is installed.
-        loaded->document = std::make_unique<Document>(loaded->session, loaded->mesh, DeformerOptions{}, Document::Publish{});
-        std::lock_guard lock(load_mutex_);
-        loaded_ = std::move(loaded);
-      } catch (const std::exception& error) {
-        std::lock_guard lock(load_mutex_);
-        load_error_ = error.what();
-      }
-      load_done_ = true;
-      glfwPostEmptyEvent();
-    });
+  void start_load(const std::string& what, Load load) {
+    load_.start("Loading " + what, [load] {
+      auto [session, mesh] = load();
+      Loaded loaded;
+      loaded.session = std::move(session);
+      loaded.mesh = std::move(mesh);
+      // Replaying applied stages and the checks run here, off the frame loop; the publisher is
+      // attached when the document is installed.
+      loaded.document = std::make_unique<Document>(loaded.session, loaded.mesh, DeformerOptions{}, Document::Publish{});
+      return loaded;
+    }, [] { glfwPostEmptyEvent(); });
   }
 
   struct Loaded {
@@ -587,28 +576,27 @@ class EditorApp {
   };
 
   void finish_load() {
-    if (!load_done_) return;
-    load_thread_.join();
-    load_done_ = false;
-    loading_ = false;
-    std::lock_guard lock(load_mutex_);
-    if (!load_error_.empty()) {
-      error_message_ = load_error_;
-      open_failure_ = load_error_;
+    if (!load_.done()) return;
+    auto outcome = load_.take();
+    if (!outcome.error.empty()) {
+      const std::string& failure = outcome.error;
+      error_message_ = failure;
+      open_failure_ = failure;
       if (!after_open_note_.empty()) status_ = after_open_note_;
       after_open_note_.clear();
-      print_json_line({{"event", "error"}, {"message", load_error_}});
+      print_json_line({{"event", "error"}, {"message", failure}});
       if (!document_ && (options_.benchmark_drag_seconds > 0.0)) {
-        std::cerr << "hdeform: error: " << load_error_ << '\n';
+        std::cerr << "hdeform: error: " << failure << '\n';
         exit_code_ = 1;
         quit_ = true;
       }
       return;
     }
-    install(std::move(loaded_));
+    install(std::move(*outcome.result));
   }
 
-  void install(std::unique_ptr<Loaded> loaded) {
+  void install(Loaded loaded_document) {
+    Loaded* loaded = &loaded_document;
     vkDeviceWaitIdle(context_->device());
     document_.reset();  // its pipeline stops before its publisher goes
     publisher_.reset();
@@ -665,14 +653,14 @@ class EditorApp {
   void open_path(const std::string& path) {
     last_open_request_ = path;
     if (path.ends_with(".json")) {
-      start_load([path] {
+      start_load(path, [path] {
         SessionSource source;
         Session session = read_session(path, &source);
         return std::pair{session, load_session_mesh(session, &source)};
       });
       return;
     }
-    start_load([path, refine = options_.refine] {
+    start_load(path, [path, refine = options_.refine] {
       Session session;
       session.current.refine = refine;
       session.mesh = names_builtin_shape(path) ? path : std::filesystem::absolute(path).lexically_normal().string();
@@ -953,7 +941,7 @@ class EditorApp {
       return;
     }
     ImGui::TextWrapped("%s", !mesh_name_.empty() ? mesh_name_.c_str()
-                                        : loading_      ? "(loading)"
+                                        : load_.running() ? "(loading)"
                                         : restore_offer_ ? "Restore the last session? (the question in the middle)"
                                                          : "No mesh open: Open... or drop an OBJ file here");
     if (document_) ImGui::Text("%ld vertices, %ld triangles", static_cast<long>(document_->vertex_count()), static_cast<long>(document_->rest().triangle_count()));
@@ -1120,9 +1108,9 @@ class EditorApp {
       ImGui::End();
     }
     const auto transfer_work = transfer_->work();
-    const bool busy = loading_ || (document_ && document_->solver_state() == Document::SolverState::Building) || transfer_work;
+    const bool busy = load_.running() || (document_ && document_->solver_state() == Document::SolverState::Building) || transfer_work;
     const double busy_for = transfer_work ? transfer_work->second
-                            : loading_    ? seconds_since(load_started_)
+                            : load_.running() ? load_.seconds()
                                           : (build_started_ != Clock::time_point{} ? seconds_since(build_started_) : 0.0);
     if (busy && busy_for > kProgressDelay) {
       const ImVec2 size = ImGui::GetIO().DisplaySize;
@@ -1130,7 +1118,7 @@ class EditorApp {
       ImGui::Begin("Working", nullptr, ImGuiWindowFlags_NoDecoration | ImGuiWindowFlags_AlwaysAutoResize | ImGuiWindowFlags_NoInputs);
       const char* spinner = "|/-\\";
       const std::string what = transfer_work ? transfer_work->first
-                               : loading_    ? "Loading " + (mesh_name_.empty() ? std::string("the mesh") : mesh_name_)
+                               : load_.running() ? load_.what()
                                              : document_->solver_message();
       ImGui::Text("%c %s  (%.1f s)", spinner[static_cast<int>(busy_for * 8) % 4], what.c_str(), busy_for);
       ImGui::End();
@@ -1818,13 +1806,7 @@ class EditorApp {
   std::uint64_t picker_version_ = 0;
   std::unique_ptr<RecoveryWriter> recovery_;
 
-  std::thread load_thread_;
-  std::mutex load_mutex_;
-  std::atomic<bool> load_done_{false};
-  bool loading_ = false;
-  Clock::time_point load_started_;
-  std::unique_ptr<Loaded> loaded_;
-  std::string load_error_;
+  BackgroundTask<Loaded> load_;  // reading a mesh or session and replaying it
   Clock::time_point build_started_{};
 
   engine::Camera camera_;

@@ -105,14 +105,17 @@ TransferView::TransferView(const engine::VulkanContext& context, VkRenderPass re
     : context_(context), render_pass_(render_pass), format_(format), frames_in_flight_(frames_in_flight), up_(up) {}
 
 TransferView::~TransferView() {
-  if (worker_.joinable()) worker_.join();
+  load_.abandon();
+  compute_.abandon();
   vkDeviceWaitIdle(context_.device());
 }
+
+bool TransferView::working() const { return load_.running() || compute_.running(); }
 
 // ---- loading ------------------------------------------------------------------------------------
 
 void TransferView::open(const TransferPaths& inputs) {
-  if (worker_.joinable()) {
+  if (working()) {
     error_ = "wait until the current work finishes";
     return;
   }
@@ -124,45 +127,35 @@ void TransferView::open(const TransferPaths& inputs) {
   copy_text(markers_file_, sizeof markers_file_, inputs.markers);
   source_column_ = inputs.source_column;
   error_.clear();
-  work_what_ = "Loading " + inputs.source_rest + " and " + inputs.target;
-  work_started_ = Clock::now();
-  worker_ = std::thread([this, inputs] {
-    try {
-      auto loaded = std::make_unique<Loaded>();
-      if (inputs.source_rest.empty() || inputs.target.empty()) throw InputError("give the source rest mesh and the target mesh");
-      loaded->source_path = inputs.source_rest;
-      loaded->target_path = inputs.target;
-      loaded->source_rest = read_obj(inputs.source_rest);
-      loaded->target = read_obj(inputs.target);
-      std::vector<std::string> pose_paths;
-      for (const auto& pose : inputs.poses) {
-        const auto expanded = expand_paths(pose);
-        pose_paths.insert(pose_paths.end(), expanded.begin(), expanded.end());
-      }
-      for (const auto& path : pose_paths) {
-        Mesh pose = read_obj(path);
-        if (pose.vertex_count() != loaded->source_rest.vertex_count() || pose.triangles != loaded->source_rest.triangles) {
-          throw InputError(path + ": a pose must have the source rest mesh's vertices and triangles");
-        }
-        loaded->poses.push_back(std::move(pose.positions));
-        loaded->pose_names.push_back(std::filesystem::path(path).stem().string());
-        loaded->pose_paths.push_back(path);
-      }
-      loaded->markers_path = inputs.markers;
-      loaded->source_column = inputs.source_column;
-      if (!inputs.markers.empty() && std::filesystem::exists(inputs.markers)) {
-        loaded->markers = read_marker_pairs(inputs.markers, inputs.source_column == 2 ? SourceColumn::Second : SourceColumn::First,
-                                            loaded->source_rest.vertex_count(), loaded->target.vertex_count());
-      }
-      std::lock_guard lock(work_mutex_);
-      loaded_ = std::move(loaded);
-    } catch (const std::exception& error) {
-      std::lock_guard lock(work_mutex_);
-      work_error_ = error.what();
+  load_.start("Loading " + inputs.source_rest + " and " + inputs.target, [inputs] {
+    auto loaded = std::make_unique<Loaded>();
+    if (inputs.source_rest.empty() || inputs.target.empty()) throw InputError("give the source rest mesh and the target mesh");
+    loaded->source_path = inputs.source_rest;
+    loaded->target_path = inputs.target;
+    loaded->source_rest = read_obj(inputs.source_rest);
+    loaded->target = read_obj(inputs.target);
+    std::vector<std::string> pose_paths;
+    for (const auto& pose : inputs.poses) {
+      const auto expanded = expand_paths(pose);
+      pose_paths.insert(pose_paths.end(), expanded.begin(), expanded.end());
     }
-    work_done_ = true;
-    glfwPostEmptyEvent();
-  });
+    for (const auto& path : pose_paths) {
+      Mesh pose = read_obj(path);
+      if (pose.vertex_count() != loaded->source_rest.vertex_count() || pose.triangles != loaded->source_rest.triangles) {
+        throw InputError(path + ": a pose must have the source rest mesh's vertices and triangles");
+      }
+      loaded->poses.push_back(std::move(pose.positions));
+      loaded->pose_names.push_back(std::filesystem::path(path).stem().string());
+      loaded->pose_paths.push_back(path);
+    }
+    loaded->markers_path = inputs.markers;
+    loaded->source_column = inputs.source_column;
+    if (!inputs.markers.empty() && std::filesystem::exists(inputs.markers)) {
+      loaded->markers = read_marker_pairs(inputs.markers, inputs.source_column == 2 ? SourceColumn::Second : SourceColumn::First,
+                                          loaded->source_rest.vertex_count(), loaded->target.vertex_count());
+    }
+    return loaded;
+  }, [] { glfwPostEmptyEvent(); });
 }
 
 void TransferView::drop(const std::vector<std::string>& paths, const ImVec2& cursor) {
@@ -243,15 +236,9 @@ std::optional<TransferState> TransferView::state() const {
 }
 
 void TransferView::restore(const TransferState& state) {
-  if (worker_.joinable()) {
-    // A load from the command line still running: the restored state supersedes it.
-    worker_.join();
-    work_done_ = false;
-    std::lock_guard lock(work_mutex_);
-    loaded_.reset();
-    finished_.reset();
-    work_error_.clear();
-  }
+  // A load from the command line may still be running: the restored state supersedes it.
+  load_.abandon();
+  compute_.abandon();
   restoring_ = state;
   // The markers come from the state, not from the markers file (which may be older).
   open({state.source_rest, state.target, state.poses, "", state.source_column});
@@ -292,27 +279,23 @@ void TransferView::set_up(int side, engine::UpAxis up) {
 // ---- each frame ---------------------------------------------------------------------------------
 
 void TransferView::poll() {
-  if (work_done_) {
-    worker_.join();
-    work_done_ = false;
-    std::unique_ptr<Loaded> loaded;
-    std::unique_ptr<Computed> computed;
-    std::string failure;
-    {
-      std::lock_guard lock(work_mutex_);
-      loaded = std::move(loaded_);
-      computed = std::move(finished_);
-      failure = std::move(work_error_);
-      work_error_.clear();
-    }
-    work_what_.clear();
-    if (!failure.empty()) {
-      error_ = failure;
-      if (restoring_) error_ += " (the recovered transfer state was not restored)";
+  const auto failed = [this](const std::string& failure) {
+    error_ = failure;
+    print_json_line({{"event", "error"}, {"message", failure}});
+  };
+  if (load_.done()) {
+    auto outcome = load_.take();
+    if (!outcome.error.empty()) {
+      failed(outcome.error + (restoring_ ? " (the recovered transfer state was not restored)" : ""));
       restoring_.reset();
-      print_json_line({{"event", "error"}, {"message", failure}});
+    } else {
+      install(std::move(*outcome.result));
     }
-    if (loaded) install(std::move(loaded));
+  }
+  if (compute_.done()) {
+    auto outcome = compute_.take();
+    if (!outcome.error.empty()) failed(outcome.error);
+    std::unique_ptr<Computed> computed = outcome.result ? std::move(*outcome.result) : nullptr;
     if (computed) {
       computed_ = std::move(computed);
       computed_markers_version_ = computed_->markers_version;
@@ -407,11 +390,12 @@ void TransferView::record(VkCommandBuffer commands, uint32_t slot) const {
   }
 }
 
-bool TransferView::busy() const { return worker_.joinable() || playing_ || drag_.has_value(); }
+bool TransferView::busy() const { return working() || playing_ || drag_.has_value(); }
 
 std::optional<std::pair<std::string, double>> TransferView::work() const {
-  if (!worker_.joinable()) return std::nullopt;
-  return std::pair{work_what_, seconds_since(work_started_)};
+  if (load_.running()) return std::pair{load_.what(), load_.seconds()};
+  if (compute_.running()) return std::pair{compute_.what(), compute_.seconds()};
+  return std::nullopt;
 }
 
 // ---- input -------------------------------------------------------------------------------------
@@ -593,7 +577,7 @@ void TransferView::handle_key(int key, int mods) {
 // ---- compute, save, export ------------------------------------------------------------------------
 
 void TransferView::start_compute() {
-  if (!sides_[0] || worker_.joinable()) return;
+  if (!sides_[0] || working()) return;
   if (markers_.size() < kMinimumMarkers) {
     error_ = "Place at least " + std::to_string(kMinimumMarkers) + " marker pairs first";
     return;
@@ -604,35 +588,25 @@ void TransferView::start_compute() {
   options.method = method_ == 0 ? TransferMethod::Correspondence : TransferMethod::Interpolation;
   options.top_n = method_ == 0 ? top_n_ : 0;
   options.mismatch_threshold = mismatch_threshold_;
-  work_what_ = std::string("Transferring ") + std::to_string(poses_.size()) + " pose(s) by " + std::string(to_string(options.method));
-  work_started_ = Clock::now();
-  worker_ = std::thread([this, options, source = sides_[0]->rest, target = sides_[1]->rest, markers = markers_.pairs(), poses = poses_,
-                         version = markers_.version()] {
-    try {
-      DeformationTransfer transfer(source, target, markers, options);
-      auto computed = std::make_unique<Computed>();
-      std::vector<double> pose_ms;
-      for (const auto& pose : poses) {
-        computed->results.emplace_back();
-        transfer.transfer(pose, computed->results.back());
-        pose_ms.push_back(transfer.last_pose().total_ms);
-      }
-      computed->setup = transfer.setup_timings();
-      computed->pose_ms = summarize(pose_ms);
-      computed->factorizations = transfer.factorizations();
-      computed->mismatches = transfer.mismatch_count();
-      computed->markers_version = version;
-      computed->method = options.method;
-      computed->warnings = transfer.warnings();
-      std::lock_guard lock(work_mutex_);
-      finished_ = std::move(computed);
-    } catch (const std::exception& error) {
-      std::lock_guard lock(work_mutex_);
-      work_error_ = error.what();
+  compute_.start(std::string("Transferring ") + std::to_string(poses_.size()) + " pose(s) by " + std::string(to_string(options.method)),
+                 [options, source = sides_[0]->rest, target = sides_[1]->rest, markers = markers_.pairs(), poses = poses_, version = markers_.version()] {
+    DeformationTransfer transfer(source, target, markers, options);
+    auto computed = std::make_unique<Computed>();
+    std::vector<double> pose_ms;
+    for (const auto& pose : poses) {
+      computed->results.emplace_back();
+      transfer.transfer(pose, computed->results.back());
+      pose_ms.push_back(transfer.last_pose().total_ms);
     }
-    work_done_ = true;
-    glfwPostEmptyEvent();
-  });
+    computed->setup = transfer.setup_timings();
+    computed->pose_ms = summarize(pose_ms);
+    computed->factorizations = transfer.factorizations();
+    computed->mismatches = transfer.mismatch_count();
+    computed->markers_version = version;
+    computed->method = options.method;
+    computed->warnings = transfer.warnings();
+    return computed;
+  }, [] { glfwPostEmptyEvent(); });
 }
 
 void TransferView::save_markers(const std::string& path) {
@@ -753,7 +727,7 @@ void TransferView::draw_panel(bool escape_pressed) {
     if (top_n_ > 0 && top_n_ < 3) top_n_ = 3;
     if (ImGui::SliderFloat("Mismatch beyond", &mismatch_threshold_, 0.01f, 1.0f, "%.3f")) ++settings_version_;
   }
-  ImGui::BeginDisabled(worker_.joinable() || markers_.size() < kMinimumMarkers);
+  ImGui::BeginDisabled(working() || markers_.size() < kMinimumMarkers);
   if (ImGui::Button("Compute (F5)")) start_compute();
   ImGui::EndDisabled();
   if (computed_) {

@@ -20,6 +20,7 @@
 #include "hdeform/engine/vulkan_context.h"
 #include "hdeform/mesh.h"
 #include "hdeform/transfer.h"
+#include "gui/background_task.h"
 #include "marker_editor.h"
 #include "transfer_state.h"
 
@@ -143,15 +144,10 @@ class TransferView {
   float frames_per_second_ = 12.0f;
   std::chrono::steady_clock::time_point last_advance_{};
 
-  // Background work.
-  std::thread worker_;
-  mutable std::mutex work_mutex_;
-  std::atomic<bool> work_done_{false};
-  std::string work_what_;
-  std::chrono::steady_clock::time_point work_started_{};
-  std::unique_ptr<Loaded> loaded_;
-  std::unique_ptr<Computed> finished_;
-  std::string work_error_;
+  // Background work: one at a time.
+  BackgroundTask<std::unique_ptr<Loaded>> load_;
+  BackgroundTask<std::unique_ptr<Computed>> compute_;
+  bool working() const;
 
   // Panel state.
   char source_path_[1024] = {};
