@@ -10,6 +10,7 @@
 #include <numbers>
 #include <string>
 
+#include "gui/edit_tools.h"
 #include "gui/gizmo.h"
 #include "gui/input_queue.h"
 #include "gui/pose_editor.h"
@@ -300,6 +301,51 @@ TEST(Gizmo, PartsAreFoundWhereTheyAreDrawnAndTheGizmoStaysInTheView) {
   EXPECT_EQ(gizmo.hit({401.0f, 230.0f}), GizmoPart::AxisX);
   gizmo.layout(orthographic, Eigen::Vector3f::Zero(), axes, 1.0f, GizmoMode::Rotate, Eigen::Vector2f(0, 0), Eigen::Vector2f(800, 600));
   EXPECT_EQ(gizmo.hit({400.0f + 80.0f * std::cos(0.7f), 300.0f - 80.0f * std::sin(0.7f)}), GizmoPart::RingZ);  // the z ring, seen face-on
+}
+
+// Blender's convention for the keys: G or R, then X/Y/Z to lock (again to free, Shift for the
+// plane); the same keys set the twist axis for the twist tool; modified keys are not the tools'.
+TEST(EditTools, KeysPickToolsAndLockAxesAsInBlender) {
+  EditTools tools;
+  EXPECT_TRUE(tools.press(GLFW_KEY_G, 0));
+  EXPECT_EQ(tools.tool, Tool::Grab);
+  EXPECT_TRUE(tools.press(GLFW_KEY_X, 0));
+  EXPECT_EQ(tools.axis_lock, 0);
+  EXPECT_FALSE(tools.lock_plane);
+  EXPECT_EQ(tools.lock_text(), " along x");
+  EXPECT_TRUE(tools.press(GLFW_KEY_X, 0));
+  EXPECT_FALSE(tools.axis_lock) << "the same axis again frees the move";
+  EXPECT_TRUE(tools.press(GLFW_KEY_Z, GLFW_MOD_SHIFT));
+  EXPECT_EQ(tools.axis_lock, 2);
+  EXPECT_TRUE(tools.lock_plane);
+  EXPECT_EQ(tools.lock_text(), " in the plane normal to z");
+  EXPECT_TRUE(tools.press(GLFW_KEY_Y, 0));
+  EXPECT_EQ(tools.axis_lock, 1);
+  EXPECT_FALSE(tools.lock_plane) << "an axis after a plane: the axis";
+  EXPECT_TRUE(tools.press(GLFW_KEY_R, 0));
+  EXPECT_FALSE(tools.axis_lock) << "a tool picked drops the lock";
+  EXPECT_TRUE(tools.press(GLFW_KEY_Y, GLFW_MOD_SHIFT));
+  EXPECT_EQ(tools.axis_lock, 1);
+  EXPECT_FALSE(tools.lock_plane) << "rotation has no plane lock: about the axis";
+  EXPECT_EQ(tools.lock_text(), " about y");
+  EXPECT_TRUE(tools.press(GLFW_KEY_T, 0));
+  EXPECT_TRUE(tools.press(GLFW_KEY_X, 0));
+  EXPECT_EQ(tools.twist_axis, TwistAxis::X);
+  EXPECT_FALSE(tools.axis_lock);
+  EXPECT_EQ(tools.lock_text(), "");
+  EXPECT_TRUE(tools.press(GLFW_KEY_V, 0));
+  EXPECT_EQ(tools.twist_axis, TwistAxis::View);
+  EXPECT_FALSE(tools.press(GLFW_KEY_Z, GLFW_MOD_CONTROL)) << "Ctrl+Z is undo, not the z axis";
+  EXPECT_FALSE(tools.press(GLFW_KEY_S, GLFW_MOD_CONTROL)) << "Ctrl+S is save, not the scale tool";
+  EXPECT_EQ(tools.tool, Tool::Twist);
+  EXPECT_TRUE(tools.press(GLFW_KEY_Z, GLFW_MOD_ALT));
+  EXPECT_TRUE(tools.paint_through);
+  EXPECT_TRUE(tools.press(GLFW_KEY_2, 0));
+  EXPECT_TRUE(is_paint_tool(tools.tool));
+  EXPECT_EQ(layer_of(tools.tool), Layer::Fixed);
+  EXPECT_TRUE(tools.press(GLFW_KEY_E, 0));
+  EXPECT_TRUE(tools.erase);
+  EXPECT_FALSE(tools.press(GLFW_KEY_Q, 0));
 }
 
 }  // namespace

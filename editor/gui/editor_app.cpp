@@ -24,6 +24,7 @@
 #include "cli_support.h"
 #include "document.h"
 #include "gui/background_task.h"
+#include "gui/edit_tools.h"
 #include "gui/frame_statistics.h"
 #include "gui/gizmo.h"
 #include "gui/input_queue.h"
@@ -62,32 +63,14 @@ constexpr double kProgressDelay = 0.5;     // show progress for work longer than
 constexpr double kMaxLatchMs = 20.0;       // the longest a frame waits for a solve ("latch" pacing)
 constexpr int kRefineAfterRestMs = 150;     // "latch": refinement once the input has rested this long
 
-enum class Tool { PaintRoi, PaintFixed, PaintHandle, Grab, Rotate, Scale, Twist };
-enum class TwistAxis { X, Y, Z, View };
 
-const char* tool_name(Tool tool) {
-  switch (tool) {
-    case Tool::PaintRoi: return "Paint region of interest";
-    case Tool::PaintFixed: return "Paint fixed";
-    case Tool::PaintHandle: return "Paint handle";
-    case Tool::Grab: return "Move handle";
-    case Tool::Rotate: return "Rotate handle";
-    case Tool::Scale: return "Scale handle";
-    case Tool::Twist: return "Twist handle";
-  }
-  return "";
-}
 
 std::string lowercase_first(std::string text) {
   if (!text.empty()) text[0] = static_cast<char>(std::tolower(static_cast<unsigned char>(text[0])));
   return text;
 }
 
-bool is_paint_tool(Tool tool) { return tool == Tool::PaintRoi || tool == Tool::PaintFixed || tool == Tool::PaintHandle; }
 
-Layer layer_of(Tool tool) {
-  return tool == Tool::PaintRoi ? Layer::RegionOfInterest : tool == Tool::PaintFixed ? Layer::Fixed : Layer::Handle;
-}
 
 // Every shortcut, shown by the help overlay (F1).
 constexpr std::pair<const char*, const char*> kShortcuts[] = {
@@ -696,7 +679,7 @@ class EditorApp {
 
   void take_input_while_waiting() {
     glfwPollEvents();
-    if (dragging_ && !is_paint_tool(tool_)) {
+    if (dragging_ && !is_paint_tool(tools_.tool)) {
       double x = 0.0, y = 0.0;
       glfwGetCursorPos(window_, &x, &y);
       continue_handle_drag(ImVec2(static_cast<float>(x), static_cast<float>(y)), last_input_);
@@ -957,13 +940,13 @@ class EditorApp {
     ImGui::Separator();
     ImGui::TextDisabled("Tool");
     for (const Tool tool : {Tool::PaintRoi, Tool::PaintFixed, Tool::PaintHandle, Tool::Grab, Tool::Rotate, Tool::Scale, Tool::Twist}) {
-      if (ImGui::RadioButton(tool_name(tool), tool_ == tool)) tool_ = tool;
+      if (ImGui::RadioButton(tool_name(tool), tools_.tool == tool)) tools_.tool = tool;
     }
     const float column = ImGui::GetContentRegionAvail().x * 0.5f;  // two columns: no label past the edge
-    ImGui::Checkbox("Erase (E)", &erase_);
+    ImGui::Checkbox("Erase (E)", &tools_.erase);
     ImGui::SameLine(column);
-    ImGui::Checkbox("Lasso (L)", &lasso_);
-    ImGui::Checkbox("Paint through, front and back (Alt+Z)", &paint_through_);
+    ImGui::Checkbox("Lasso (L)", &tools_.lasso);
+    ImGui::Checkbox("Paint through, front and back (Alt+Z)", &tools_.paint_through);
     if (ImGui::IsItemHovered()) ImGui::SetTooltip("The brush and the lasso take every vertex under them, also those facing away:\na ring painted from one side is the whole ring.");
     ImGui::SliderFloat("Brush", &brush_radius_, 0.001f * scene_size(), 0.2f * scene_size(), "%.4f");
     if (ImGui::Button("Invert")) layer_action("invert", [this](Layer layer) { document_->invert(layer); });
@@ -973,7 +956,7 @@ class EditorApp {
     if (ImGui::Button("Shrink")) layer_action("shrink", [this](Layer layer) { document_->shrink(layer); });
     ImGui::SameLine();
     if (ImGui::Button("Clear")) layer_action("clear", [this](Layer layer) { document_->clear(layer); });
-    if (ImGui::Button("Connected (C)")) connected_armed_ = true;
+    if (ImGui::Button("Connected (C)")) tools_.connected_armed = true;
     if (document_->has_region_of_interest()) ImGui::Text("Region of interest: %zu vertices", document_->region_of_interest_size());
     else ImGui::Text("Region of interest: the whole mesh");
     ImGui::Text("Fixed: %zu vertices", document_->fixed_count());
@@ -990,7 +973,7 @@ class EditorApp {
     }
     if (ImGui::Button("New handle (N)")) {
       document_->add_handle();
-      tool_ = Tool::PaintHandle;
+      tools_.tool = Tool::PaintHandle;
     }
     ImGui::SameLine();
     if (ImGui::Button("Remove") && document_->handle_count() > 0) finish_action("remove handle " + std::to_string(document_->active_handle() + 1), [this] { document_->remove_handle(document_->active_handle()); });
@@ -1215,13 +1198,13 @@ class EditorApp {
   // `verb` ("invert") applied to the current tool's layer.
   template <class Act>
   void layer_action(const char* verb, Act act) {
-    if (!document_ || !is_paint_tool(tool_)) return;
-    finish_action(std::string(verb) + " " + layer_name(), [&] { act(layer_of(tool_)); });
+    if (!document_ || !is_paint_tool(tools_.tool)) return;
+    finish_action(std::string(verb) + " " + layer_name(), [&] { act(layer_of(tools_.tool)); });
   }
 
   // The current paint tool's layer, as the status line names it.
   std::string layer_name() const {
-    switch (layer_of(tool_)) {
+    switch (layer_of(tools_.tool)) {
       case Layer::RegionOfInterest: return "the region of interest";
       case Layer::Fixed: return "fixed";
       case Layer::Handle: return "handle " + std::to_string(document_->active_handle() + 1);
@@ -1353,34 +1336,7 @@ class EditorApp {
     }
     if (!document_) return;
     if (pressed(GLFW_KEY_F)) adjust_camera(false);
-    if (pressed(GLFW_KEY_1)) tool_ = Tool::PaintRoi;
-    if (pressed(GLFW_KEY_2)) tool_ = Tool::PaintFixed;
-    if (pressed(GLFW_KEY_3)) tool_ = Tool::PaintHandle;
-    if (pressed(GLFW_KEY_G) || pressed(GLFW_KEY_R) || pressed(GLFW_KEY_S) || pressed(GLFW_KEY_T)) axis_lock_.reset();
-    if (pressed(GLFW_KEY_G)) tool_ = Tool::Grab;
-    if (pressed(GLFW_KEY_R)) tool_ = Tool::Rotate;
-    if (pressed(GLFW_KEY_S)) tool_ = Tool::Scale;
-    if (pressed(GLFW_KEY_T)) tool_ = Tool::Twist;
-    // X, Y, Z: the tool's axis. Move and rotate lock to it (pressed again: free; Shift: move in
-    // the plane normal to it), as in Blender; twist turns about it.
-    constexpr TwistAxis twist_axes[3] = {TwistAxis::X, TwistAxis::Y, TwistAxis::Z};
-    constexpr int axis_keys[3] = {GLFW_KEY_X, GLFW_KEY_Y, GLFW_KEY_Z};
-    for (int k = 0; k < 3; ++k) {
-      const bool plain = pressed(axis_keys[k]), shifted = pressed(axis_keys[k], GLFW_MOD_SHIFT);
-      if (!plain && !shifted) continue;
-      if (tool_ == Tool::Grab || tool_ == Tool::Rotate) {
-        const bool plane = shifted && tool_ == Tool::Grab;
-        const bool same = axis_lock_ == k && lock_plane_ == plane;
-        axis_lock_ = same ? std::nullopt : std::optional<int>(k);
-        lock_plane_ = plane;
-      } else if (plain) {
-        twist_axis_ = twist_axes[k];
-      }
-    }
-    if (pressed(GLFW_KEY_E)) erase_ = !erase_;
-    if (pressed(GLFW_KEY_Z, GLFW_MOD_ALT)) paint_through_ = !paint_through_;
-    if (pressed(GLFW_KEY_L)) lasso_ = !lasso_;
-    if (pressed(GLFW_KEY_C)) connected_armed_ = true;
+    for (const auto& press : frame_keys_) tools_.press(press.key, press.mods);
     if (pressed(GLFW_KEY_I)) layer_action("invert", [this](Layer layer) { document_->invert(layer); });
     if (pressed(GLFW_KEY_EQUAL)) layer_action("grow", [this](Layer layer) { document_->grow(layer); });
     if (pressed(GLFW_KEY_MINUS)) layer_action("shrink", [this](Layer layer) { document_->shrink(layer); });
@@ -1388,7 +1344,7 @@ class EditorApp {
     if (pressed(GLFW_KEY_RIGHT_BRACKET)) brush_radius_ *= 1.25f;
     if (pressed(GLFW_KEY_N)) {
       document_->add_handle();
-      tool_ = Tool::PaintHandle;
+      tools_.tool = Tool::PaintHandle;
     }
     if (pressed(GLFW_KEY_TAB) && document_->handle_count() > 0) {
       document_->set_active_handle((document_->active_handle() + 1) % static_cast<int>(document_->handle_count()));
@@ -1396,7 +1352,6 @@ class EditorApp {
     if (pressed(GLFW_KEY_0)) finish_action("reset the handles", [this] { document_->reset_poses(); });
     if (pressed(GLFW_KEY_A)) apply();
     if (pressed(GLFW_KEY_W)) settings_.wireframe = !settings_.wireframe;
-    if (pressed(GLFW_KEY_V)) twist_axis_ = TwistAxis::View;
     if (pressed(GLFW_KEY_H)) {
       settings_.show_field = !settings_.show_field;
       view_dirty_ = true;
@@ -1461,8 +1416,8 @@ class EditorApp {
       drag_cursor_ = mouse;
       lay_out_gizmo();
       gizmo_drag_ = gizmo_.hit({mouse.x, mouse.y});
-      if (connected_armed_) {
-        connected_armed_ = false;
+      if (tools_.connected_armed) {
+        tools_.connected_armed = false;
         dragging_ = false;
         paint_connected(mouse);
         return;
@@ -1472,13 +1427,13 @@ class EditorApp {
     if (ImGui::IsMouseReleased(ImGuiMouseButton_Left) || !ImGui::IsMouseDown(ImGuiMouseButton_Left)) {
       dragging_ = false;
       gizmo_drag_ = GizmoPart::None;
-      if (is_paint_tool(tool_) && lasso_) paint_lasso();
-      commit_action(is_paint_tool(tool_) ? std::string(erase_ ? "erase " : "paint ") + layer_name()
-                                         : lowercase_first(tool_name(tool_)) + " " + std::to_string(document_->active_handle() + 1));
+      if (is_paint_tool(tools_.tool) && tools_.lasso) paint_lasso();
+      commit_action(is_paint_tool(tools_.tool) ? std::string(tools_.erase ? "erase " : "paint ") + layer_name()
+                                         : lowercase_first(tool_name(tools_.tool)) + " " + std::to_string(document_->active_handle() + 1));
       return;
     }
-    if (is_paint_tool(tool_)) {
-      if (lasso_) {
+    if (is_paint_tool(tools_.tool)) {
+      if (tools_.lasso) {
         if (stroke_.empty() || std::hypot(stroke_.back().x - mouse.x, stroke_.back().y - mouse.y) > 3.0f) stroke_.push_back(mouse);
       } else {
         paint_brush(mouse);
@@ -1503,7 +1458,7 @@ class EditorApp {
     if (shown_geometry() == nullptr) return std::nullopt;
     const auto ray = cursor_ray(mouse);
     const auto hit = picker_->pick(ray);
-    if (!hit && !paint_through_) return std::nullopt;
+    if (!hit && !tools_.paint_through) return std::nullopt;
     const Eigen::Vector3f point = hit ? hit->point : Eigen::Vector3f(ray.pointAt((camera_.target - camera_.position()).norm()));
     const Eigen::Vector3f right = (camera_.target - camera_.position()).cross(camera_.up_vector()).normalized();
     const ImVec2 centre = project(point);
@@ -1515,7 +1470,7 @@ class EditorApp {
     const auto* shown = shown_geometry();
     if (shown == nullptr) return;
     std::vector<int> vertices;
-    if (paint_through_) {
+    if (tools_.paint_through) {
       // Everything under the brush's circle, front and back.
       const auto brush = brush_on_screen(mouse);
       if (!brush) return;
@@ -1529,7 +1484,7 @@ class EditorApp {
       if (!hit) return;
       vertices = vertices_in_ball(shown->position_normal, hit->point, brush_radius_);
     }
-    document_->paint(vertices, layer_of(tool_), erase_);
+    document_->paint(vertices, layer_of(tools_.tool), tools_.erase);
     view_dirty_ = true;
     recovery_dirty_ = true;
   }
@@ -1542,22 +1497,22 @@ class EditorApp {
     for (const auto& point : stroke_) polygon.emplace_back(point.x * scale.x, point.y * scale.y);
     const auto extent = target_->extent();
     const std::optional<Eigen::Vector3f> towards_viewer =
-        paint_through_ ? std::nullopt : std::optional<Eigen::Vector3f>((camera_.position() - camera_.target).normalized());
+        tools_.paint_through ? std::nullopt : std::optional<Eigen::Vector3f>((camera_.position() - camera_.target).normalized());
     const auto vertices = vertices_in_lasso(shown->position_normal, polygon,
                                             camera_.view_projection(static_cast<float>(extent.width) / static_cast<float>(extent.height)),
                                             static_cast<float>(extent.width), static_cast<float>(extent.height), towards_viewer);
-    document_->paint(vertices, layer_of(tool_), erase_);
+    document_->paint(vertices, layer_of(tools_.tool), tools_.erase);
     stroke_.clear();
     view_dirty_ = true;
   }
 
   void paint_connected(const ImVec2& mouse) {
-    if (!is_paint_tool(tool_) || shown_geometry() == nullptr) return;
+    if (!is_paint_tool(tools_.tool) || shown_geometry() == nullptr) return;
     const auto hit = picker_->pick(cursor_ray(mouse));
     if (!hit) return;
     const auto vertices = connected_vertices(hit->vertex, document_->adjacency());
-    finish_action(std::string(erase_ ? "erase " : "paint ") + "the connected part as " + layer_name(),
-                  [&] { document_->paint(vertices, layer_of(tool_), erase_); });
+    finish_action(std::string(tools_.erase ? "erase " : "paint ") + "the connected part as " + layer_name(),
+                  [&] { document_->paint(vertices, layer_of(tools_.tool), tools_.erase); });
   }
 
   // Moves the active handle by a mouse drag (or the benchmark's synthetic one).
@@ -1584,13 +1539,13 @@ class EditorApp {
       if (is_ring(gizmo_drag_)) about = axis_k;
       else if (is_plane(gizmo_drag_)) normal = axis_k;
       else along = axis_k;
-    } else if (axis_lock_) {
-      const Eigen::Vector3f axis_k = Eigen::Vector3f::Unit(*axis_lock_);
-      if (tool_ == Tool::Rotate) about = axis_k;
-      else if (lock_plane_) normal = axis_k;
+    } else if (tools_.axis_lock) {
+      const Eigen::Vector3f axis_k = Eigen::Vector3f::Unit(*tools_.axis_lock);
+      if (tools_.tool == Tool::Rotate) about = axis_k;
+      else if (tools_.lock_plane) normal = axis_k;
       else along = axis_k;
     }
-    switch (tool_) {
+    switch (tools_.tool) {
       case Tool::Grab: {
         if (along) {
           shift += drag_along_axis(from, to, centre, *along).cast<double>();
@@ -1631,7 +1586,7 @@ class EditorApp {
   }
 
   Eigen::Vector3d twist_direction(const Eigen::Vector3f& forward) const {
-    switch (twist_axis_) {
+    switch (tools_.twist_axis) {
       case TwistAxis::X: return Eigen::Vector3d::UnitX();
       case TwistAxis::Y: return Eigen::Vector3d::UnitY();
       case TwistAxis::Z: return Eigen::Vector3d::UnitZ();
@@ -1662,13 +1617,13 @@ class EditorApp {
     if (!document_ || view_only_screenshot()) return;
     ImDrawList* draw = ImGui::GetBackgroundDrawList();  // under the panel and the dialogs
     const ImVec2 mouse = ImGui::GetIO().MousePos;
-    if (is_paint_tool(tool_)) {
-      if (lasso_ && stroke_.size() > 1) draw->AddPolyline(stroke_.data(), static_cast<int>(stroke_.size()), IM_COL32(255, 230, 60, 255), 0, 1.5f);
-      if (!lasso_ && !ImGui::GetIO().WantCaptureMouse) {
+    if (is_paint_tool(tools_.tool)) {
+      if (tools_.lasso && stroke_.size() > 1) draw->AddPolyline(stroke_.data(), static_cast<int>(stroke_.size()), IM_COL32(255, 230, 60, 255), 0, 1.5f);
+      if (!tools_.lasso && !ImGui::GetIO().WantCaptureMouse) {
         if (const auto brush = brush_on_screen(mouse)) {
-          const ImU32 color = erase_ ? IM_COL32(255, 80, 80, 255) : paint_through_ ? IM_COL32(120, 220, 255, 255) : IM_COL32(255, 255, 255, 220);
+          const ImU32 color = tools_.erase ? IM_COL32(255, 80, 80, 255) : tools_.paint_through ? IM_COL32(120, 220, 255, 255) : IM_COL32(255, 255, 255, 220);
           draw->AddCircle(brush->first, brush->second, color, 48, 1.5f);
-          if (paint_through_) draw->AddCircle(brush->first, brush->second - 3.0f, color, 48, 1.0f);
+          if (tools_.paint_through) draw->AddCircle(brush->first, brush->second - 3.0f, color, 48, 1.0f);
         }
       }
       return;
@@ -1688,7 +1643,7 @@ class EditorApp {
       under->AddCircle(c, 6.0f, IM_COL32(255, 255, 255, 255), 16, 2.0f);
     }
     char text[128];
-    std::snprintf(text, sizeof text, "%s%s  %.1f°  ×%.2f", tool_name(tool_), axis_lock_text().c_str(), pose.angle * 180.0 / std::numbers::pi, pose.scale);
+    std::snprintf(text, sizeof text, "%s%s  %.1f°  ×%.2f", tool_name(tools_.tool), tools_.lock_text().c_str(), pose.angle * 180.0 / std::numbers::pi, pose.scale);
     under->AddText(ImVec2(c.x + 10, c.y + 8), IM_COL32(255, 255, 255, 255), text);
   }
 
@@ -1696,7 +1651,7 @@ class EditorApp {
   // handle, 8% of the scene long, kept inside the view.
   void lay_out_gizmo() {
     const int h = document_->active_handle();
-    if ((tool_ != Tool::Grab && tool_ != Tool::Rotate) || document_->handle_count() == 0 || document_->handle_size(h) == 0) {
+    if ((tools_.tool != Tool::Grab && tools_.tool != Tool::Rotate) || document_->handle_count() == 0 || document_->handle_size(h) == 0) {
       gizmo_ = HandleGizmo{};
       return;
     }
@@ -1704,15 +1659,8 @@ class EditorApp {
     const Eigen::Matrix3f axes = pose.rotation().toRotationMatrix().cast<float>();
     const ImVec2 size = ImGui::GetIO().DisplaySize;
     gizmo_.layout([this](const Eigen::Vector3f& point) { return project_to_window(point); }, (pose.pivot + pose.shift).cast<float>(), axes,
-                  0.08f * scene_size(), tool_ == Tool::Grab ? GizmoMode::Move : GizmoMode::Rotate, Eigen::Vector2f(kPanelWidth + 8.0f, 8.0f),
+                  0.08f * scene_size(), tools_.tool == Tool::Grab ? GizmoMode::Move : GizmoMode::Rotate, Eigen::Vector2f(kPanelWidth + 8.0f, 8.0f),
                   Eigen::Vector2f(size.x - 8.0f, size.y - 8.0f));
-  }
-
-  std::string axis_lock_text() const {
-    if (!axis_lock_ || (tool_ != Tool::Grab && tool_ != Tool::Rotate)) return "";
-    const char* name[3] = {"x", "y", "z"};
-    if (tool_ == Tool::Rotate) return std::string(" about ") + name[*axis_lock_];
-    return lock_plane_ ? std::string(" in the plane normal to ") + name[*axis_lock_] : std::string(" along ") + name[*axis_lock_];
   }
 
   // ---- the drag benchmark ---------------------------------------------------------------------------
@@ -1822,11 +1770,7 @@ class EditorApp {
   Mode mode_ = Mode::Edit;
   std::unique_ptr<TransferView> transfer_;
 
-  Tool tool_ = Tool::Grab;
-  TwistAxis twist_axis_ = TwistAxis::Z;
-  bool erase_ = false;
-  bool lasso_ = false;
-  bool connected_armed_ = false;
+  EditTools tools_;
   float brush_radius_ = 0.02f;
   bool dragging_ = false;
   bool camera_drag_ = false;
@@ -1851,12 +1795,9 @@ class EditorApp {
   bool quit_dialog_ = false;
   bool quit_ = false;
   int exit_code_ = 0;
-  bool paint_through_ = false;
   std::array<float, 4> announced_pose_fields_{};
   HandleGizmo gizmo_;
   GizmoPart gizmo_drag_ = GizmoPart::None;  // the part the current drag started on
-  std::optional<int> axis_lock_;            // X, Y, Z with the move and rotate tools
-  bool lock_plane_ = false;                 // Shift: the plane normal to the locked axis
   bool screenshot_requested_ = false;
   bool screenshot_with_panel_ = false;  // Shift+F12: the window as it looks, panel and dialogs too
   int screenshots_ = 0;
