@@ -12,6 +12,7 @@
 
 #include "gui/edit_tools.h"
 #include "gui/gizmo.h"
+#include "gui/handle_drag.h"
 #include "gui/input_queue.h"
 #include "gui/pose_editor.h"
 
@@ -346,6 +347,68 @@ TEST(EditTools, KeysPickToolsAndLockAxesAsInBlender) {
   EXPECT_TRUE(tools.press(GLFW_KEY_E, 0));
   EXPECT_TRUE(tools.erase);
   EXPECT_FALSE(tools.press(GLFW_KEY_Q, 0));
+}
+
+// A drag step seen by a camera on the +z axis looking down (right = x, up = y).
+DragStep step_between(const Eigen::Vector3f& a, const Eigen::Vector3f& b, const Eigen::Vector2f& delta) {
+  DragStep step;
+  step.from = ray_through(a);
+  step.to = ray_through(b);
+  step.cursor = *orthographic(b);
+  step.delta = delta;
+  step.forward = -Eigen::Vector3f::UnitZ();
+  step.right = Eigen::Vector3f::UnitX();
+  step.up = Eigen::Vector3f::UnitY();
+  step.world_per_pixel = 0.01f;
+  step.project = orthographic;
+  step.ring_radius = 0.5f;
+  return step;
+}
+
+TEST(HandleDrag, EachToolAndConstraintMovesThePoseAsItSays) {
+  const Eigen::Vector3d pivot(0.2, -0.1, 0.0);
+  const HandleTransform rest = HandleTransform::about_pivot(Eigen::Vector3d::UnitZ(), pivot, 0.0);
+  const Eigen::Vector3f centre = pivot.cast<float>();
+  EditTools tools;
+  tools.tool = Tool::Grab;
+  // Free: in the view plane, by the pixels times the world size of one.
+  HandleTransform moved = drag_pose(rest, tools, GizmoPart::None, step_between(centre, centre, Eigen::Vector2f(10.0f, -5.0f)));
+  EXPECT_NEAR((moved.shift - Eigen::Vector3d(0.1, 0.05, 0.0)).norm(), 0.0, 1e-6);
+  // Locked to x: the cursor's move in y is ignored.
+  tools.axis_lock = 0;
+  moved = drag_pose(rest, tools, GizmoPart::None, step_between(centre, centre + Eigen::Vector3f(0.5f, 0.3f, 0.0f), Eigen::Vector2f(50, -30)));
+  EXPECT_NEAR(moved.shift.x(), 0.5, 2e-3);  // the slanted ray passes beside the axis: its nearest approach is a little off
+  EXPECT_EQ(moved.shift.y(), 0.0);
+  EXPECT_EQ(moved.shift.z(), 0.0);
+  // The gizmo's y axis of a handle turned 90° about z is the world's −x.
+  tools.axis_lock.reset();
+  const HandleTransform turned = HandleTransform::about_pivot(Eigen::Vector3d::UnitZ(), pivot, std::numbers::pi / 2);
+  moved = drag_pose(turned, tools, GizmoPart::AxisY, step_between(centre, centre + Eigen::Vector3f(-0.4f, 0.2f, 0.0f), Eigen::Vector2f(-40, -20)));
+  EXPECT_NEAR(moved.shift.x(), -0.4, 2e-3);
+  EXPECT_NEAR(moved.shift.y(), 0.0, 1e-6);
+  EXPECT_EQ(moved.angle, turned.angle) << "a move does not turn";
+  // Rotate on the z ring: by the angle the cursor went round the centre.
+  tools.tool = Tool::Rotate;
+  const Eigen::Vector3f on_ring = centre + Eigen::Vector3f(0.5f, 0.0f, 0.0f);
+  const Eigen::Vector3f turned_on_ring = centre + 0.5f * Eigen::Vector3f(std::cos(0.3f), std::sin(0.3f), 0.0f);
+  moved = drag_pose(rest, tools, GizmoPart::RingZ, step_between(on_ring, turned_on_ring, *orthographic(turned_on_ring) - *orthographic(on_ring)));
+  EXPECT_NEAR(moved.angle, 0.3, 1e-4);
+  EXPECT_NEAR(moved.axis.z(), 1.0, 1e-9);
+  // Scale: up the screen grows it.
+  tools.tool = Tool::Scale;
+  moved = drag_pose(rest, tools, GizmoPart::None, step_between(centre, centre, Eigen::Vector2f(0.0f, -100.0f)));
+  EXPECT_NEAR(moved.scale, std::exp(1.0), 1e-9);
+  // Twist about x: 100 pixels right is one radian.
+  tools.tool = Tool::Twist;
+  tools.twist_axis = TwistAxis::X;
+  moved = drag_pose(rest, tools, GizmoPart::None, step_between(centre, centre, Eigen::Vector2f(100.0f, 0.0f)));
+  EXPECT_NEAR(moved.angle, 1.0, 1e-9);
+  EXPECT_NEAR(moved.axis.x(), 1.0, 1e-9);
+  // Paint tools leave the pose alone.
+  tools.tool = Tool::PaintFixed;
+  moved = drag_pose(turned, tools, GizmoPart::None, step_between(centre, centre + Eigen::Vector3f(1, 1, 0), Eigen::Vector2f(100, 100)));
+  EXPECT_EQ(moved.angle, turned.angle);
+  EXPECT_EQ(moved.shift, turned.shift);
 }
 
 }  // namespace

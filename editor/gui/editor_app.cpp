@@ -26,6 +26,7 @@
 #include "gui/background_task.h"
 #include "gui/edit_tools.h"
 #include "gui/frame_statistics.h"
+#include "gui/handle_drag.h"
 #include "gui/gizmo.h"
 #include "gui/input_queue.h"
 #include "gui/pose_editor.h"
@@ -1518,81 +1519,26 @@ class EditorApp {
   // Moves the active handle by a mouse drag (or the benchmark's synthetic one).
   void drag_handle(const ImVec2& mouse, const ImVec2& delta, Clock::time_point event_time) {
     const int h = document_->active_handle();
-    if (document_->handle_count() == 0 || document_->handle_size(h) == 0) return;
-    const HandleTransform pose = document_->pose(h);
-    Eigen::Vector3d axis = pose.axis;
-    double angle = pose.angle;
-    double scale = pose.scale;
-    Eigen::Vector3d shift = pose.shift;
+    if (document_->handle_count() == 0 || document_->handle_size(h) == 0 || is_paint_tool(tools_.tool)) return;
+    const HandleTransform& pose = document_->pose(h);
+    DragStep step;
+    step.from = cursor_ray(ImVec2(mouse.x - delta.x, mouse.y - delta.y));
+    step.to = cursor_ray(mouse);
+    step.cursor = Eigen::Vector2f(mouse.x, mouse.y);
+    step.delta = Eigen::Vector2f(delta.x, delta.y);
     const Eigen::Vector3f eye = camera_.position();
-    const Eigen::Vector3f forward = (camera_.target - eye).normalized();
-    const Eigen::Vector3f right = forward.cross(camera_.up_vector()).normalized();
-    const Eigen::Vector3f up = right.cross(forward);
-    const Eigen::Vector3f centre = (pose.pivot + pose.shift).cast<float>();
+    step.forward = (camera_.target - eye).normalized();
+    step.right = step.forward.cross(camera_.up_vector()).normalized();
+    step.up = step.right.cross(step.forward);
+    const float depth = std::max((pose.pivot + pose.shift).cast<float>().dot(step.forward) - eye.dot(step.forward), 1e-6f);
     const float height = static_cast<float>(std::max(target_->extent().height, 1u)) / ImGui::GetIO().DisplayFramebufferScale.y;
-    const Ray from = cursor_ray(ImVec2(mouse.x - delta.x, mouse.y - delta.y)), to = cursor_ray(mouse);
-    // The constraint: a part of the gizmo pressed, else the axis (or plane) locked by X, Y, Z.
-    const Eigen::Matrix3f local = pose.rotation().toRotationMatrix().cast<float>();
-    std::optional<Eigen::Vector3f> along, normal, about;
-    if (gizmo_drag_ != GizmoPart::None) {
-      const Eigen::Vector3f axis_k = local.col(gizmo_axis(gizmo_drag_));
-      if (is_ring(gizmo_drag_)) about = axis_k;
-      else if (is_plane(gizmo_drag_)) normal = axis_k;
-      else along = axis_k;
-    } else if (tools_.axis_lock) {
-      const Eigen::Vector3f axis_k = Eigen::Vector3f::Unit(*tools_.axis_lock);
-      if (tools_.tool == Tool::Rotate) about = axis_k;
-      else if (tools_.lock_plane) normal = axis_k;
-      else along = axis_k;
-    }
-    switch (tools_.tool) {
-      case Tool::Grab: {
-        if (along) {
-          shift += drag_along_axis(from, to, centre, *along).cast<double>();
-        } else if (normal) {
-          shift += drag_in_plane(from, to, centre, *normal).cast<double>();
-        } else {
-          const float depth = std::max((centre - eye).dot(forward), 1e-6f);
-          const float world_per_pixel = 2.0f * depth * std::tan(0.5f * camera_.fov_y) / height;
-          shift += (world_per_pixel * (delta.x * right - delta.y * up)).cast<double>();
-        }
-        break;
-      }
-      case Tool::Rotate: {
-        if (about) {
-          // Seen nearly edge-on, a ring's plane gives no stable intersection: follow its near side.
-          const double turn = std::abs(forward.dot(*about)) >= 0.3f
-                                  ? drag_about_axis(from, to, centre, *about)
-                                  : drag_about_axis_edge_on({delta.x, delta.y}, centre, *about, 0.8f * gizmo_.length(), -forward,
-                                                            [this](const Eigen::Vector3f& point) { return project_to_window(point); });
-          compose_rotation(axis, angle, about->cast<double>(), turn);
-          break;
-        }
-        const ImVec2 pivot = project(centre);
-        const double before = std::atan2(mouse.y - delta.y - pivot.y, mouse.x - delta.x - pivot.x);
-        const double after = std::atan2(mouse.y - pivot.y, mouse.x - pivot.x);
-        double turn = after - before;
-        turn -= 2.0 * std::numbers::pi * std::round(turn / (2.0 * std::numbers::pi));
-        compose_rotation(axis, angle, (-forward).cast<double>(), -turn);  // clockwise on screen follows the mouse
-        break;
-      }
-      case Tool::Scale: scale = std::clamp(scale * std::exp(-0.01 * delta.y), 0.05, 20.0); break;
-      case Tool::Twist: compose_rotation(axis, angle, twist_direction(forward), 0.01 * delta.x); break;
-      default: return;
-    }
-    document_->set_pose(h, axis, angle, scale, shift);
+    step.world_per_pixel = 2.0f * depth * std::tan(0.5f * camera_.fov_y) / height;
+    step.project = [this](const Eigen::Vector3f& point) { return project_to_window(point); };
+    step.ring_radius = 0.8f * gizmo_.length();
+    const HandleTransform moved = drag_pose(pose, tools_, gizmo_drag_, step);
+    document_->set_pose(h, moved.axis, moved.angle, moved.scale, moved.shift);
     note_pose_input(event_time);
     recovery_dirty_ = true;
-  }
-
-  Eigen::Vector3d twist_direction(const Eigen::Vector3f& forward) const {
-    switch (tools_.twist_axis) {
-      case TwistAxis::X: return Eigen::Vector3d::UnitX();
-      case TwistAxis::Y: return Eigen::Vector3d::UnitY();
-      case TwistAxis::Z: return Eigen::Vector3d::UnitZ();
-      case TwistAxis::View: return (-forward).cast<double>();
-    }
-    return Eigen::Vector3d::UnitZ();
   }
 
   std::optional<Eigen::Vector2f> project_to_window(const Eigen::Vector3f& point) const {
