@@ -15,6 +15,7 @@
 #include "gui/handle_drag.h"
 #include "gui/input_queue.h"
 #include "gui/pose_editor.h"
+#include "gui/view_navigation.h"
 
 namespace hdeform::cli {
 namespace {
@@ -409,6 +410,28 @@ TEST(HandleDrag, EachToolAndConstraintMovesThePoseAsItSays) {
   moved = drag_pose(turned, tools, GizmoPart::None, step_between(centre, centre + Eigen::Vector3f(1, 1, 0), Eigen::Vector2f(100, 100)));
   EXPECT_EQ(moved.angle, turned.angle);
   EXPECT_EQ(moved.shift, turned.shift);
+}
+
+TEST(ViewNavigation, BothModesReadTheMouseAlikeAndMoveTheCameraAsItsOwnCallsDo) {
+  //                                  left   middle right  shift  alt
+  EXPECT_EQ(camera_gesture(false, false, true, false, false), CameraGesture::Orbit);
+  EXPECT_EQ(camera_gesture(true, false, false, false, true), CameraGesture::Orbit);  // Alt+left
+  EXPECT_EQ(camera_gesture(false, true, false, false, false), CameraGesture::Pan);
+  EXPECT_EQ(camera_gesture(false, false, true, true, false), CameraGesture::Pan);  // Shift+right
+  EXPECT_EQ(camera_gesture(true, false, false, false, false), CameraGesture::None);  // a plain left drag is the tool's
+  EXPECT_EQ(camera_gesture(true, false, false, true, false), CameraGesture::None);
+  const engine::Bounds bounds{Eigen::Vector3f(-1, -1, -1), Eigen::Vector3f(1, 1, 1)};
+  const engine::Camera start = engine::Camera::three_quarter_front(bounds, engine::UpAxis::Z, 1.5f);
+  engine::Camera moved = start, expected = start;
+  apply_camera_gesture(moved, CameraGesture::Orbit, Eigen::Vector2f(50, -20), 600, 0);
+  expected.orbit(-50 * 0.008f, -20 * 0.008f);
+  EXPECT_LT((moved.position() - expected.position()).norm(), 1e-6f);
+  moved = expected = start;
+  apply_camera_gesture(moved, CameraGesture::Pan, Eigen::Vector2f(60, 30), 600, 2);
+  expected.pan(-0.1f, 0.05f);
+  expected.zoom(0.88f * 0.88f);
+  EXPECT_LT((moved.position() - expected.position()).norm(), 1e-5f);
+  EXPECT_LT((moved.target - expected.target).norm(), 1e-6f);
 }
 
 }  // namespace

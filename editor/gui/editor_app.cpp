@@ -34,6 +34,7 @@
 #include "gui/recovery.h"
 #include "gui/restore_prompt.h"
 #include "gui/synthetic_drag.h"
+#include "gui/view_navigation.h"
 #include "transfer_state.h"
 #include "gui/transfer_view.h"
 #include "gui/widgets.h"
@@ -1391,23 +1392,13 @@ class EditorApp {
     ImGuiIO& io = ImGui::GetIO();
     const ImVec2 mouse = io.MousePos;
     const ImVec2 delta = io.MouseDelta;
-    const auto extent = target_->extent();
-    const float height = static_cast<float>(std::max(extent.height, 1u));
     const bool over_view = !io.WantCaptureMouse;
 
-    // Camera: right drag orbits, middle drag (or shift+right) pans, the wheel zooms.
-    const bool orbiting = ImGui::IsMouseDown(ImGuiMouseButton_Right) || (io.KeyAlt && ImGui::IsMouseDown(ImGuiMouseButton_Left));
+    // A camera drag that began over the view goes on over the panel.
+    const CameraGesture gesture = camera_gesture_now();
     if (over_view || camera_drag_) {
-      if (ImGui::IsMouseDown(ImGuiMouseButton_Middle) || (io.KeyShift && ImGui::IsMouseDown(ImGuiMouseButton_Right))) {
-        camera_.pan(-delta.x / height, delta.y / height);
-        camera_drag_ = true;
-      } else if (orbiting) {
-        camera_.orbit(-delta.x * 0.008f, delta.y * 0.008f);
-        camera_drag_ = true;
-      } else {
-        camera_drag_ = false;
-      }
-      if (over_view && io.MouseWheel != 0.0f) camera_.zoom(std::pow(0.88f, io.MouseWheel));
+      apply_camera_gesture(camera_, gesture, {delta.x, delta.y}, io.DisplaySize.y, over_view ? io.MouseWheel : 0.0f);
+      camera_drag_ = gesture != CameraGesture::None;
     }
     if (io.KeyAlt) return;
 

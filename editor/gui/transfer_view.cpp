@@ -1,5 +1,7 @@
 #include "gui/transfer_view.h"
 
+#include "gui/view_navigation.h"
+
 #define GLFW_INCLUDE_VULKAN
 #include <GLFW/glfw3.h>
 #include <fnmatch.h>
@@ -481,22 +483,18 @@ void TransferView::handle_mouse() {
   const ImVec2 pixel(io.MousePos.x * scale.x, io.MousePos.y * scale.y);
   const int side = side_under(pixel);
 
-  // Cameras: right drag orbits, middle (or Shift+right) drag pans, the wheel zooms, each in the
-  // view where the drag began.
-  const bool panning = ImGui::IsMouseDown(ImGuiMouseButton_Middle) || (io.KeyShift && ImGui::IsMouseDown(ImGuiMouseButton_Right));
-  const bool orbiting = !panning && ImGui::IsMouseDown(ImGuiMouseButton_Right);
-  if (panning || orbiting) {
+  // Each view's camera, as in edit mode, moved in the view where the drag began.
+  const CameraGesture gesture = camera_gesture_now();
+  if (gesture != CameraGesture::None) {
     if (camera_side_ < 0 && !io.WantCaptureMouse) camera_side_ = side;
-    if (camera_side_ >= 0) {
-      engine::Camera& camera = sides_[camera_side_]->camera;
-      const float height = static_cast<float>(std::max(sides_[camera_side_]->area.extent.height, 1u)) / scale.y;
-      if (panning) camera.pan(-io.MouseDelta.x / height, io.MouseDelta.y / height);
-      else camera.orbit(-io.MouseDelta.x * 0.008f, io.MouseDelta.y * 0.008f);
-    }
   } else {
     camera_side_ = -1;
   }
-  if (!io.WantCaptureMouse && side >= 0 && io.MouseWheel != 0.0f) sides_[side]->camera.zoom(std::pow(0.88f, io.MouseWheel));
+  const Eigen::Vector2f delta(io.MouseDelta.x, io.MouseDelta.y);
+  if (camera_side_ >= 0) {
+    apply_camera_gesture(sides_[camera_side_]->camera, gesture, delta, static_cast<float>(sides_[camera_side_]->area.extent.height) / scale.y, 0.0f);
+  }
+  if (!io.WantCaptureMouse && side >= 0) apply_camera_gesture(sides_[side]->camera, CameraGesture::None, delta, 1.0f, io.MouseWheel);
 
   if (drag_) {
     if (ImGui::IsMouseDown(ImGuiMouseButton_Left)) {
