@@ -1,0 +1,370 @@
+// The editor window: opening meshes and sessions, the recovery files and the restore prompt, actions and undo, saving.
+#include "gui/editor_app_parts.h"
+
+namespace hdeform::cli::gui {
+
+void EditorApp::start_from_options() {
+  if (!options_.transfer.source_rest.empty() || !options_.transfer.target.empty()) {
+    set_mode(Mode::Transfer);
+    transfer_->open(options_.transfer);
+  }
+  recovery_ = std::make_unique<RecoveryWriter>(options_.recovery_file.empty() ? default_recovery_path() : options_.recovery_file,
+                                               [](const Session& session) { print_json_line({{"event", "recovery"}, {"digest", session_digest(session)}}); });
+  if (std::filesystem::exists(recovery_->path()) || std::filesystem::exists(transfer_recovery_path())) {
+    if (options_.restore == "ask") return offer_restore();
+    if (options_.restore == "yes") {
+      restore_transfer_mode();
+      if (std::filesystem::exists(recovery_->path())) return restore_recovery();
+      return start_requested_document();
+    }
+    remove_recovery_files();
+  }
+  start_requested_document();
+}
+
+std::filesystem::path EditorApp::transfer_recovery_path() const {
+  const auto& path = recovery_->path();
+  return path.parent_path() / (path.stem().string() + "-transfer.json");
+}
+
+void EditorApp::remove_recovery_files() {
+  std::error_code ignored;
+  std::filesystem::remove(recovery_->path(), ignored);
+  std::filesystem::remove(transfer_recovery_path(), ignored);
+}
+
+void EditorApp::restore_transfer_mode() {
+  if (!std::filesystem::exists(transfer_recovery_path())) return;
+  try {
+    transfer_->restore(read_transfer_state(transfer_recovery_path()));
+    set_mode(Mode::Transfer);
+  } catch (const std::exception& error) {
+    error_message_ = std::string("Transfer mode was not restored: ") + error.what();
+  }
+}
+
+void EditorApp::write_transfer_recovery() {
+  // Not while the question is open or a restore is loading: the file holds what is offered.
+  if (!recovery_ || restore_offer_ || transfer_->restoring() || transfer_->state_version() == transfer_recovery_version_) return;
+  transfer_recovery_version_ = transfer_->state_version();
+  const auto state = transfer_->state();
+  if (!state) return;
+  try {
+    std::filesystem::create_directories(transfer_recovery_path().parent_path());
+    write_transfer_state(transfer_recovery_path(), *state);
+    print_json_line({{"event", "transfer recovery"}, {"markers", state->markers.size()}});
+  } catch (const std::exception& error) {
+    std::cerr << "hdeform: warning: could not write the transfer recovery file: " << error.what() << '\n';
+  }
+}
+
+void EditorApp::offer_restore() {
+  const std::string requested = !options_.session.empty() ? options_.session : options_.mesh;
+  try {
+    restore_offer_ = make_restore_offer(recovery_->path(), transfer_recovery_path(), requested);
+    print_json_line({{"event", "restore prompt"},
+                     {"recovery", restore_offer_->recovery.string()},
+                     {"mesh", restore_offer_->mesh},
+                     {"holds", restore_offer_->holds},
+                     {"transfer", restore_offer_->transfer},
+                     {"requested", restore_offer_->requested}});
+  } catch (const std::exception& error) {
+    // Nothing to offer, but nothing thrown away either.
+    const std::string reason = error.what();
+    std::string kept;
+    for (const auto& path : {recovery_->path(), transfer_recovery_path()}) {
+      if (!std::filesystem::exists(path)) continue;
+      try {
+        kept += (kept.empty() ? "" : " and ") + set_recovery_aside(path).string();
+      } catch (const std::exception& move_error) {
+        kept += (kept.empty() ? "" : " and ") + path.string() + " (it could not be moved: " + move_error.what() + ")";
+      }
+    }
+    error_message_ = "The recovery file could not be read: " + reason + ". It is kept as " + kept + ".";
+    print_json_line({{"event", "error"}, {"message", error_message_}});
+    start_requested_document();
+  }
+}
+
+void EditorApp::answer_restore(RestoreChoice choice) {
+  const RestoreOffer offer = *restore_offer_;
+  restore_offer_.reset();
+  if (choice == RestoreChoice::Restore) {
+    if (offer.conflicts()) after_open_note_ = offer.requested + " was not opened (Ctrl+O opens it).";
+    restore_transfer_mode();
+    if (!offer.recovery.empty()) restore_recovery();
+    else start_requested_document();
+    return;
+  }
+  if (choice == RestoreChoice::OpenRequested) {
+    for (const auto& path : {offer.recovery, offer.transfer_recovery}) {
+      if (path.empty()) continue;
+      try {
+        const auto kept = set_recovery_aside(path);
+        after_open_note_ += std::string(after_open_note_.empty() ? "" : " ") + "The recovered " +
+                            (path == offer.recovery ? "session" : "transfer state") + " is kept as " + kept.string() + ".";
+        print_json_line({{"event", "recovery kept"}, {"path", kept.string()}});
+      } catch (const std::exception& error) {
+        error_message_ = std::string("The recovery file could not be set aside: ") + error.what();
+      }
+    }
+  } else {
+    remove_recovery_files();
+  }
+  start_requested_document();
+}
+
+void EditorApp::restore_recovery() {
+  const auto path = recovery_->path();
+  start_load("the recovered session", [path] {
+    SessionSource source;
+    Session session = read_session(path, &source);
+    return std::pair{session, load_session_mesh(session, &source)};
+  });
+}
+
+void EditorApp::start_requested_document() {
+  const EditorOptions options = options_;
+  last_open_request_ = !options.session.empty() ? options.session : options.mesh;
+  const std::string what = !options.session.empty() ? options.session : options.mesh.empty() ? std::string("the cactus") : options.mesh;
+  start_load(what, [options] {
+    if (!options.session.empty()) {
+      SessionSource source;
+      Session session = read_session(options.session, &source);
+      return std::pair{session, load_session_mesh(session, &source)};
+    }
+    Session session;
+    session.current.refine = options.refine;
+    session.mesh = options.mesh.empty() ? "shape:cactus" : options.mesh;
+    if (!names_builtin_shape(session.mesh)) session.mesh = std::filesystem::absolute(session.mesh).lexically_normal().string();
+    LoadedMesh loaded = load_mesh(MeshSource::from_name(session.mesh));
+    Mesh mesh = std::move(loaded.mesh);
+    if (loaded.demo_constraints && options.handles.empty()) {
+      // A built-in shape starts with its demo's source and sink painted, ready to drag.
+      session.current.fixed = loaded.demo_constraints->fixed;
+      session.current.handles.push_back({loaded.demo_constraints->handles[0], pose_for(loaded.demo_constraints->handles[0], mesh, {})});
+    }
+    if (!options.fixed.empty()) session.current.fixed = read_vertex_list(options.fixed, mesh.vertex_count(), "the fixed vertices are the sinks");
+    if (!options.roi.empty()) {
+      session.current.region_of_interest = read_vertex_list(options.roi, mesh.vertex_count(), "an empty region of interest leaves nothing to deform");
+    }
+    for (std::size_t h = 0; h < options.handles.size(); ++h) {
+      auto vertices = read_vertex_list(options.handles[h], mesh.vertex_count(), "a handle needs at least one vertex");
+      std::optional<HandleTransform> target;
+      if (h < options.transforms.size()) target = read_handle_transform(options.transforms[h]);
+      session.current.handles.push_back({vertices, pose_for(vertices, mesh, target)});
+    }
+    if (!options.handles.empty()) refuse_contradictions(session.current.constraints(), options.fixed, options.handles);
+    return std::pair{session, mesh};
+  });
+}
+
+HandleTransform EditorApp::pose_for(const std::vector<int>& vertices, const Mesh& mesh, const std::optional<HandleTransform>& target) {
+  Eigen::Vector3d pivot = Eigen::Vector3d::Zero();
+  for (const int v : vertices) pivot += mesh.positions.row(v).transpose();
+  pivot /= static_cast<double>(vertices.size());
+  if (!target) return HandleTransform::about_pivot(Eigen::Vector3d::UnitZ(), pivot, 0.0);
+  const Eigen::Vector3d shift = target->apply(pivot) - pivot;
+  return HandleTransform::about_pivot(target->axis, pivot, target->angle, target->scale, shift);
+}
+
+void EditorApp::finish_load() {
+  if (!load_.done()) return;
+  auto outcome = load_.take();
+  if (!outcome.error.empty()) {
+    const std::string& failure = outcome.error;
+    error_message_ = failure;
+    open_failure_ = failure;
+    if (!after_open_note_.empty()) status_ = after_open_note_;
+    after_open_note_.clear();
+    print_json_line({{"event", "error"}, {"message", failure}});
+    if (!document_ && (options_.benchmark_drag_seconds > 0.0)) {
+      std::cerr << "hdeform: error: " << failure << '\n';
+      exit_code_ = 1;
+      quit_ = true;
+    }
+    return;
+  }
+  install(std::move(*outcome.result));
+}
+
+void EditorApp::install(Loaded loaded_document) {
+  Loaded* loaded = &loaded_document;
+  vkDeviceWaitIdle(context_->device());
+  document_.reset();  // its pipeline stops before its publisher goes
+  publisher_.reset();
+  const Mesh& rest = loaded->document->rest();
+  exchange_ = std::make_unique<engine::GeometryExchange>(static_cast<std::size_t>(rest.vertex_count()));
+  publisher_ = std::make_unique<engine::GeometryPublisher>(*exchange_, rest.triangles);
+  loaded->document->set_publish([this](const Eigen::MatrixXd& positions, std::uint64_t request) {
+    publisher_->publish(positions, request);
+    glfwPostEmptyEvent();
+  });
+  document_ = std::move(loaded->document);
+  publisher_->publish(document_->rest().positions, 0);
+  mesh_name_ = loaded->session.mesh;
+  const auto bounds = engine::Bounds::of(document_->rest().positions);
+  renderer_->set_mesh(document_->rest().triangles, *exchange_, bounds, up_axis());
+  picker_.reset();
+  adjust_camera(true);
+  brush_radius_ = 0.03f * bounds.radius() * 2.0f;
+  view_dirty_ = true;
+  shown_tag_ = 0;
+  if (options_.output.empty() && !names_builtin_shape(mesh_name_)) {
+    std::filesystem::path output(mesh_name_);
+    output_path_ = (output.parent_path() / (output.stem().string() + "-edited.obj")).string();
+  } else if (options_.output.empty()) {
+    output_path_ = (std::filesystem::current_path() / (MeshSource::from_name(mesh_name_).shape_name + "-edited.obj")).string();
+  } else {
+    output_path_ = options_.output;
+  }
+  glfwSetWindowTitle(window_, ("hdeform — " + mesh_name_).c_str());
+  status_ = "Opened " + mesh_name_;
+  if (!after_open_note_.empty()) status_ += ". " + after_open_note_;
+  after_open_note_.clear();
+  error_message_.clear();
+  print_json_line({{"event", "opened"},
+                   {"mesh", mesh_name_},
+                   {"vertices", rest.vertex_count()},
+                   {"triangles", rest.triangle_count()},
+                   {"session_digest", session_digest(document_->session())}});
+  document_->request_update();
+  post_recovery();
+}
+
+void EditorApp::adjust_camera(bool reset_angles) {
+  if (!document_) return;
+  const auto extent = target_->extent();
+  const float aspect = extent.height > 0 ? static_cast<float>(extent.width) / static_cast<float>(extent.height) : 1.0f;
+  const auto bounds = engine::Bounds::of(document_->rest().positions);
+  if (reset_angles) camera_ = engine::Camera::three_quarter_front(bounds, up_axis(), aspect);
+  else camera_.fit(bounds, aspect);
+}
+
+void EditorApp::open_path(const std::string& path) {
+  last_open_request_ = path;
+  if (path.ends_with(".json")) {
+    start_load(path, [path] {
+      SessionSource source;
+      Session session = read_session(path, &source);
+      return std::pair{session, load_session_mesh(session, &source)};
+    });
+    return;
+  }
+  start_load(path, [path, refine = options_.refine] {
+    Session session;
+    session.current.refine = refine;
+    session.mesh = names_builtin_shape(path) ? path : std::filesystem::absolute(path).lexically_normal().string();
+    return std::pair{session, load_session_mesh(session)};
+  });
+}
+
+void EditorApp::commit_action(const std::string& what) {
+  if (!document_) return;
+  document_->commit(what);
+  view_dirty_ = true;
+  post_recovery();
+}
+
+std::string EditorApp::layer_name() const {
+  switch (layer_of(tools_.tool)) {
+    case Layer::RegionOfInterest: return "the region of interest";
+    case Layer::Fixed: return "fixed";
+    case Layer::Handle: return "handle " + std::to_string(document_->active_handle() + 1);
+  }
+  return "";
+}
+
+void EditorApp::undo() {
+  if (!document_) return;
+  if (document_->undo()) after_history_step("Undone: " + document_->last_history_step());
+  else status_ = "Nothing to undo";
+}
+
+void EditorApp::redo() {
+  if (!document_) return;
+  if (document_->redo()) after_history_step("Redone: " + document_->last_history_step());
+  else status_ = "Nothing to redo";
+}
+
+void EditorApp::after_history_step(const std::string& what) {
+  view_dirty_ = true;
+  publish_rest_if_needed();
+  post_request(Clock::now());
+  post_recovery();
+  status_ = what;
+}
+
+void EditorApp::apply() {
+  if (!document_ || document_->handle_count() == 0) return;
+  try {
+    document_->apply();
+    commit_action("apply");
+    publish_rest_if_needed();
+    status_ = "Applied: the result is the new rest shape";
+  } catch (const std::exception& error) {
+    error_message_ = error.what();
+  }
+}
+
+void EditorApp::publish_rest_if_needed() {
+  if (document_->solver_state() == Document::SolverState::NoHandle || document_->handle_count() == 0) publisher_->publish(document_->rest().positions, 0);
+}
+
+std::uint64_t EditorApp::post_request(std::span<const Clock::time_point> events) {
+  if (!document_) return 0;
+  const std::uint64_t request = document_->request_update();
+  if (request == 0) return 0;
+  statistics_.note_request(request, events);
+  return request;
+}
+
+void EditorApp::post_recovery() {
+  if (!document_ || !recovery_) return;
+  recovery_->post(document_->session());
+  last_recovery_ = Clock::now();
+  recovery_dirty_ = false;
+}
+
+bool EditorApp::save(const std::string& path) {
+  if (!document_ || path.empty()) return false;
+  try {
+    const Eigen::MatrixXd result = document_->result();
+    write_obj(path, Mesh{result, document_->rest().triangles});
+    write_session(session_path_for(path), document_->session());
+    document_->mark_saved();
+    status_ = "Saved " + path + " and " + session_path_for(path);
+    error_message_.clear();
+    print_json_line({{"event", "saved"}, {"obj", path}, {"session", session_path_for(path)}});
+    return true;
+  } catch (const std::exception& error) {
+    error_message_ = error.what();
+    return false;
+  }
+}
+
+void EditorApp::quit_on_signal(int signal) {
+  if (document_ && recovery_) {
+    recovery_->post(document_->session());
+    recovery_->flush();
+  }
+  if (recovery_) {
+    transfer_recovery_version_ = ~std::uint64_t{0};  // written now, whatever was written before
+    write_transfer_recovery();
+  }
+  keep_recovery_ = recovery_ && (std::filesystem::exists(recovery_->path()) || std::filesystem::exists(transfer_recovery_path()));
+  print_json_line({{"event", "signal"},
+                   {"signal", signal == SIGTERM ? "SIGTERM" : signal == SIGINT ? "SIGINT" : "SIGHUP"},
+                   {"recovery", keep_recovery_ ? recovery_->path().string() : ""}});
+  std::cerr << "hdeform: stopped by a signal; " << (keep_recovery_ ? "the session is in " + recovery_->path().string() + ", offered at the next start" : std::string("nothing to recover"))
+            << '\n';
+  exit_code_ = 128 + signal;
+  quit_ = true;
+}
+
+void EditorApp::request_quit() {
+  if (document_ && document_->modified() && options_.benchmark_drag_seconds <= 0.0) quit_dialog_ = true;
+  else quit_ = true;
+}
+
+}  // namespace hdeform::cli::gui

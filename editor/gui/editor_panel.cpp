@@ -1,0 +1,302 @@
+// The editor window: the side panel (controls, pose fields, live figures, status) and the dialogs.
+#include "gui/editor_app_parts.h"
+
+namespace hdeform::cli::gui {
+
+void EditorApp::draw_panel() {
+  ImGui::SetNextWindowPos(ImVec2(0, 0));
+  ImGui::SetNextWindowSize(ImVec2(kPanelWidth, ImGui::GetIO().DisplaySize.y));
+  ImGui::Begin("hdeform", nullptr, ImGuiWindowFlags_NoMove | ImGuiWindowFlags_NoResize | ImGuiWindowFlags_NoCollapse);
+  const bool editing = mode_ == Mode::Edit;
+  const float wrap = ImGui::GetContentRegionAvail().x;
+  const auto wrapped_height = [wrap](const std::string& text) { return text.empty() ? 0.0f : ImGui::CalcTextSize(text.c_str(), nullptr, false, wrap).y; };
+  const ImGuiStyle& style = ImGui::GetStyle();
+  const int figure_lines = editing && document_ ? 5 : 0;
+  const float footer = editing ? style.ItemSpacing.y * 4 + style.WindowPadding.y + wrapped_height(status_) + wrapped_height(error_message_) +
+                                     static_cast<float>(figure_lines) * ImGui::GetTextLineHeightWithSpacing()
+                               : 0.0f;
+  ImGui::BeginChild("controls", ImVec2(0, -footer));
+  draw_controls();
+  ImGui::EndChild();
+  if (editing) draw_footer();
+  ImGui::End();
+}
+
+void EditorApp::draw_footer() {
+  ImGui::Separator();
+  if (document_) {
+    if (const DeformerTimings* timings = document_->setup_timings()) ImGui::Text("Factorization: %.1f ms", timings->factor_ms);
+    else ImGui::TextDisabled("Factorization: -");
+    ImGui::Text("Last update: %.2f ms", document_->last_update_ms());
+    ImGui::Text("Frames: %zu per second", statistics_.frames_per_second(Clock::now()));
+    ImGui::Text("Frame: %s", percentile_text(statistics_.frame_intervals()).c_str());
+    ImGui::Text("Input to screen: %s", percentile_text(statistics_.latencies()).c_str());
+  }
+  ImGui::TextWrapped("%s", status_.c_str());
+  if (!error_message_.empty()) {
+    ImGui::PushStyleColor(ImGuiCol_Text, ImVec4(1, 0.45f, 0.45f, 1));
+    ImGui::TextWrapped("%s", error_message_.c_str());
+    ImGui::PopStyleColor();
+  }
+}
+
+void EditorApp::draw_controls() {
+  int mode = mode_ == Mode::Transfer ? 1 : 0;
+  ImGui::RadioButton("Edit", &mode, 0);
+  ImGui::SameLine();
+  ImGui::RadioButton("Transfer (Ctrl+T)", &mode, 1);
+  set_mode(mode == 1 ? Mode::Transfer : Mode::Edit);
+  ImGui::Separator();
+  if (mode_ == Mode::Transfer) {
+    transfer_->draw_panel(pressed(GLFW_KEY_ESCAPE));
+    return;
+  }
+  ImGui::TextWrapped("%s", !mesh_name_.empty() ? mesh_name_.c_str()
+                                      : load_.running() ? "(loading)"
+                                      : restore_offer_ ? "Restore the last session? (the question in the middle)"
+                                                       : "No mesh open: Open... or drop an OBJ file here");
+  if (document_) ImGui::Text("%ld vertices, %ld triangles", static_cast<long>(document_->vertex_count()), static_cast<long>(document_->rest().triangle_count()));
+  if (ImGui::Button("Open...")) request_open();
+  ImGui::SameLine();
+  if (ImGui::Button("Save")) save(output_path_);
+  ImGui::SameLine();
+  if (ImGui::Button("Save as...")) request_save_as();
+  ImGui::SameLine();
+  if (ImGui::Button("Help")) show_help_ = !show_help_;
+  if (!document_) return;
+
+  ImGui::Separator();
+  ImGui::TextDisabled("Tool");
+  for (const Tool tool : {Tool::PaintRoi, Tool::PaintFixed, Tool::PaintHandle, Tool::Grab, Tool::Rotate, Tool::Scale, Tool::Twist}) {
+    if (ImGui::RadioButton(tool_name(tool), tools_.tool == tool)) tools_.tool = tool;
+  }
+  const float column = ImGui::GetContentRegionAvail().x * 0.5f;  // two columns: no label past the edge
+  ImGui::Checkbox("Erase (E)", &tools_.erase);
+  ImGui::SameLine(column);
+  ImGui::Checkbox("Lasso (L)", &tools_.lasso);
+  ImGui::Checkbox("Paint through, front and back (Alt+Z)", &tools_.paint_through);
+  if (ImGui::IsItemHovered()) ImGui::SetTooltip("The brush and the lasso take every vertex under them, also those facing away:\na ring painted from one side is the whole ring.");
+  ImGui::SliderFloat("Brush", &brush_radius_, 0.001f * scene_size(), 0.2f * scene_size(), "%.4f");
+  if (ImGui::Button("Invert")) layer_action("invert", [this](Layer layer) { document_->invert(layer); });
+  ImGui::SameLine();
+  if (ImGui::Button("Grow")) layer_action("grow", [this](Layer layer) { document_->grow(layer); });
+  ImGui::SameLine();
+  if (ImGui::Button("Shrink")) layer_action("shrink", [this](Layer layer) { document_->shrink(layer); });
+  ImGui::SameLine();
+  if (ImGui::Button("Clear")) layer_action("clear", [this](Layer layer) { document_->clear(layer); });
+  if (ImGui::Button("Connected (C)")) tools_.connected_armed = true;
+  if (document_->has_region_of_interest()) ImGui::Text("Region of interest: %zu vertices", document_->region_of_interest_size());
+  else ImGui::Text("Region of interest: the whole mesh");
+  ImGui::Text("Fixed: %zu vertices", document_->fixed_count());
+
+  ImGui::Separator();
+  ImGui::TextDisabled("Handles");
+  for (int h = 0; h < static_cast<int>(document_->handle_count()); ++h) {
+    const auto& color = engine::class_colors()[static_cast<std::size_t>(HD_FIRST_HANDLE_COLOR + h % HD_HANDLE_COLORS)];
+    ImGui::ColorButton(("##handle" + std::to_string(h)).c_str(), ImVec4(color.x(), color.y(), color.z(), 1.0f), ImGuiColorEditFlags_NoTooltip,
+                       ImVec2(14, 14));
+    ImGui::SameLine();
+    const std::string label = "Handle " + std::to_string(h + 1) + " (" + std::to_string(document_->handle_size(h)) + " vertices)";
+    if (ImGui::Selectable(label.c_str(), document_->active_handle() == h)) document_->set_active_handle(h);
+  }
+  if (ImGui::Button("New handle (N)")) {
+    document_->add_handle();
+    tools_.tool = Tool::PaintHandle;
+  }
+  ImGui::SameLine();
+  if (ImGui::Button("Remove") && document_->handle_count() > 0) finish_action("remove handle " + std::to_string(document_->active_handle() + 1), [this] { document_->remove_handle(document_->active_handle()); });
+  draw_pose_editor();
+
+  ImGui::Separator();
+  ImGui::TextDisabled("Edit");
+  if (ImGui::Button("Undo")) undo();
+  ImGui::SameLine();
+  if (ImGui::Button("Redo")) redo();
+  ImGui::SameLine();
+  if (ImGui::Button("Reset (0)")) finish_action("reset the handles", [this] { document_->reset_poses(); });
+  ImGui::SameLine();
+  if (ImGui::Button("Apply (A)")) apply();
+
+  ImGui::Separator();
+  ImGui::TextDisabled("View");
+  // Two columns, so that no label runs past the panel's edge.
+  if (ImGui::Checkbox("Field (H)", &settings_.show_field)) view_dirty_ = true;
+  ImGui::SameLine(column);
+  ImGui::Checkbox("Classes (K)", &settings_.show_classes);
+  ImGui::Checkbox("Wireframe (W)", &settings_.wireframe);
+  ImGui::SameLine(column);
+  ImGui::Checkbox("Flat", &settings_.flat_shading);
+  ImGui::Checkbox("Ground", &settings_.ground);
+  ImGui::SameLine(column);
+  ImGui::Checkbox("Legend", &settings_.legend);
+  ImGui::SliderFloat("Isolines", &settings_.isoline_step, 0.0f, 0.5f, "%.3f");
+  if (ImGui::Button("Fit (F)")) adjust_camera(false);
+
+  ImGui::Separator();
+  ImGui::TextDisabled("Solver");
+  const char* backends[] = {"eigen", "cholmod"};
+  int backend = document_->options().backend == SolverBackend::Eigen ? 0 : 1;
+  if (ImGui::Combo("Backend", &backend, backends, backend_available(SolverBackend::Cholmod) ? 2 : 1)) {
+    DeformerOptions solver_options = document_->options();
+    solver_options.backend = backend == 0 ? SolverBackend::Eigen : SolverBackend::Cholmod;
+    document_->set_options(solver_options);
+  }
+  switch (document_->solver_state()) {
+    case Document::SolverState::NoHandle: ImGui::TextWrapped("Paint a handle (3) to deform."); break;
+    case Document::SolverState::Building: ImGui::TextWrapped("%s...", document_->solver_message().c_str()); break;
+    case Document::SolverState::Failed: ImGui::TextColored(ImVec4(1, 0.4f, 0.4f, 1), "%s", document_->solver_message().c_str()); break;
+    case Document::SolverState::Ready: break;
+  }
+  bool refine = document_->refine();
+  if (ImGui::Checkbox("Refine (as rigid as possible)", &refine)) {
+    document_->set_refine(refine);
+    document_->commit(refine ? "refinement on" : "refinement off");
+    if (!refine) document_->request_update();  // back to the paper's result on screen
+    status_ = refine ? "Refinement on: after each update, iterations until the shape settles" : "Refinement off: the paper's method alone";
+  }
+  if (ImGui::IsItemHovered()) {
+    ImGui::SetTooltip("Local/global as-rigid-as-possible iterations after the paper's update: a drag bends\n"
+                      "instead of shearing. Each frame shows the newest update first; iterations follow while\n"
+                      "the input rests, each shown as it lands, until the energy settles.");
+  }
+  if (refine) {
+    const auto view = document_->refinement();
+    const auto& status = view.status;
+    if (status.iterations == 0) {
+      ImGui::TextDisabled("Refinement: waiting for the update");
+    } else {
+      ImGui::Text("Refinement: %d iterations%s", status.iterations, status.converged ? ", settled" : "...");
+      ImGui::Text("Energy %.4g (paper's %.4g, %.1f ms each)", status.energy, status.unrefined_energy, view.iteration_ms);
+    }
+  }
+  ImGui::Checkbox("Profiler (P)", &show_profiler_);
+  ImGui::Checkbox("Solve before each frame", &latch_solves_);
+  if (ImGui::IsItemHovered()) {
+    ImGui::SetTooltip("On: a frame waits up to %.0f ms for the solve of the newest input (best on a CPU device).\n"
+                      "Off: frames never wait; each shows the newest finished solve.", kMaxLatchMs);
+  }
+}
+
+void EditorApp::draw_pose_editor() {
+  const int h = document_->active_handle();
+  if (document_->handle_count() == 0 || document_->handle_size(h) == 0) return;
+  const HandleTransform& pose = document_->pose(h);
+  PoseFields fields{pose.shift, pose.axis, pose.angle * 180.0 / std::numbers::pi, pose.scale};
+  announce_pose_fields();
+  const PoseFieldsEdit edit = pose_fields(fields, 0.002f * scene_size());
+  if (edit.changed) {
+    document_->set_pose(h, fields.axis, fields.degrees * std::numbers::pi / 180.0, fields.scale, fields.shift);
+    note_pose_input(Clock::now());
+    recovery_dirty_ = true;
+  }
+  if (edit.finished) commit_action("the pose of handle " + std::to_string(h + 1) + " typed");
+}
+
+void EditorApp::announce_pose_fields() {
+  const ImVec2 at = ImGui::GetCursorScreenPos();
+  const std::array<float, 4> layout{at.x, at.y, ImGui::CalcItemWidth(), ImGui::GetFrameHeightWithSpacing()};
+  if (layout == announced_pose_fields_) return;
+  announced_pose_fields_ = layout;
+  print_json_line({{"event", "pose fields"}, {"x", layout[0]}, {"y", layout[1]}, {"width", layout[2]}, {"row", layout[3]}});
+}
+
+void EditorApp::draw_dialogs() {
+  if (show_help_) {
+    ImGui::SetNextWindowPos(ImVec2(kPanelWidth + 20, 20), ImGuiCond_Appearing);
+    ImGui::Begin("Shortcuts (F1)", &show_help_, ImGuiWindowFlags_AlwaysAutoResize);
+    if (ImGui::BeginTable("shortcuts", 2, ImGuiTableFlags_SizingFixedFit | ImGuiTableFlags_RowBg)) {
+      for (const auto& [keys, action] : kShortcuts) {
+        ImGui::TableNextRow();
+        ImGui::TableNextColumn();
+        ImGui::TextUnformatted(keys);
+        ImGui::TableNextColumn();
+        ImGui::TextUnformatted(action);
+      }
+      ImGui::EndTable();
+    }
+    ImGui::End();
+  }
+  const auto transfer_work = transfer_->work();
+  const bool busy = load_.running() || (document_ && document_->solver_state() == Document::SolverState::Building) || transfer_work;
+  const double busy_for = transfer_work ? transfer_work->second
+                          : load_.running() ? load_.seconds()
+                                        : (build_started_ != Clock::time_point{} ? seconds_since(build_started_) : 0.0);
+  if (busy && busy_for > kProgressDelay) {
+    const ImVec2 size = ImGui::GetIO().DisplaySize;
+    ImGui::SetNextWindowPos(ImVec2(size.x * 0.5f + kPanelWidth * 0.5f, size.y * 0.5f), ImGuiCond_Always, ImVec2(0.5f, 0.5f));
+    ImGui::Begin("Working", nullptr, ImGuiWindowFlags_NoDecoration | ImGuiWindowFlags_AlwaysAutoResize | ImGuiWindowFlags_NoInputs);
+    const char* spinner = "|/-\\";
+    const std::string what = transfer_work ? transfer_work->first
+                             : load_.running() ? load_.what()
+                                           : document_->solver_message();
+    ImGui::Text("%c %s  (%.1f s)", spinner[static_cast<int>(busy_for * 8) % 4], what.c_str(), busy_for);
+    ImGui::End();
+  }
+  if (restore_offer_) {
+    const RestoreChoice choice = restore_prompt(*restore_offer_, pressed(GLFW_KEY_ENTER) || pressed(GLFW_KEY_KP_ENTER), pressed(GLFW_KEY_ESCAPE));
+    if (choice != RestoreChoice::Undecided) answer_restore(choice);
+  }
+  draw_open_failure();
+  if (const auto path = path_prompt("Open", open_dialog_, path_buffer_, pressed(GLFW_KEY_ESCAPE))) open_path(*path);
+  if (const auto path = path_prompt("Save as", save_dialog_, path_buffer_, pressed(GLFW_KEY_ESCAPE)); path && save(*path)) output_path_ = *path;
+  if (quit_dialog_) ImGui::OpenPopup("Quit");
+  if (ImGui::BeginPopupModal("Quit", nullptr, ImGuiWindowFlags_AlwaysAutoResize)) {
+    ImGui::Text("Quit without saving the changes?");
+    if (ImGui::Button("Quit (Enter)") || pressed(GLFW_KEY_ENTER) || pressed(GLFW_KEY_KP_ENTER)) quit_ = true;
+    ImGui::SameLine();
+    if (ImGui::Button("Cancel (Esc)") || pressed(GLFW_KEY_ESCAPE)) {
+      quit_dialog_ = false;
+      ImGui::CloseCurrentPopup();
+    }
+    ImGui::EndPopup();
+  }
+}
+
+void EditorApp::request_open() {
+  std::vector<std::filesystem::path> candidates;
+  if (!mesh_name_.empty() && !names_builtin_shape(mesh_name_)) candidates.emplace_back(mesh_name_);
+  if (!last_open_request_.empty() && !names_builtin_shape(last_open_request_)) candidates.push_back(std::filesystem::absolute(last_open_request_).parent_path());
+  candidates.push_back(std::filesystem::current_path());
+  std::string start;
+  for (const auto& candidate : candidates) {
+    std::error_code ignored;
+    if (!std::filesystem::exists(candidate, ignored)) continue;
+    start = candidate.string();
+    if (std::filesystem::is_directory(candidate, ignored) && !start.ends_with('/')) start += '/';
+    break;
+  }
+  std::snprintf(path_buffer_, sizeof path_buffer_, "%s", start.c_str());
+  open_dialog_ = true;
+}
+
+void EditorApp::request_save_as() {
+  std::snprintf(path_buffer_, sizeof path_buffer_, "%s", output_path_.c_str());
+  save_dialog_ = true;
+}
+
+void EditorApp::draw_open_failure() {
+  if (!open_failure_.empty() && !ImGui::IsPopupOpen("Could not open")) {
+    ImGui::OpenPopup("Could not open");
+    print_json_line({{"event", "dialog"}, {"title", "Could not open"}, {"message", open_failure_}});
+  }
+  if (!ImGui::BeginPopupModal("Could not open", nullptr, ImGuiWindowFlags_AlwaysAutoResize)) return;
+  ImGui::PushTextWrapPos(ImGui::GetFontSize() * 36.0f);
+  ImGui::TextUnformatted(open_failure_.c_str());
+  ImGui::TextDisabled("%s", document_ ? ("Still open: " + mesh_name_).c_str() : "No mesh is open.");
+  ImGui::PopTextWrapPos();
+  const auto close = [this] {
+    open_failure_.clear();
+    ImGui::CloseCurrentPopup();
+  };
+  if (ImGui::Button("Open another... (Enter)") || pressed(GLFW_KEY_ENTER) || pressed(GLFW_KEY_KP_ENTER)) {
+    close();
+    request_open();
+  }
+  ImGui::SameLine();
+  if (ImGui::Button("Copy the message")) ImGui::SetClipboardText(open_failure_.c_str());
+  ImGui::SameLine();
+  if (ImGui::Button("Close (Esc)") || pressed(GLFW_KEY_ESCAPE)) close();
+  ImGui::EndPopup();
+}
+
+}  // namespace hdeform::cli::gui
