@@ -7,6 +7,7 @@
 
 #include "document.h"
 #include "gui/frame_statistics.h"
+#include "gui/recent_files.h"
 #include "gui/recovery.h"
 #include "gui/synthetic_drag.h"
 #include "gui/restore_prompt.h"
@@ -435,6 +436,33 @@ TEST(SyntheticDrag, MovesComeInOrderAndThePoseGoesToTheTargetAndBackEveryTwoSeco
     EXPECT_GE(moves.front(), drag.started());
   }
   EXPECT_GE(wakes.load(), static_cast<int>(moves.size()));
+}
+
+TEST(RecentFiles, NewestFirstOnceEachAtMostTenOnlyWhatExistsAndKeptAcrossStarts) {
+  test::TempDir dir;
+  std::vector<std::string> files;
+  for (int k = 0; k < 12; ++k) {
+    files.push_back(dir.file("mesh-" + std::to_string(k) + ".obj").string());
+    std::ofstream(files.back()) << "v 0 0 0\n";
+  }
+  const auto list_path = dir.file("state/recent.json");
+  {
+    cli::RecentFiles recent(list_path);
+    EXPECT_TRUE(recent.list().empty());
+    recent.add(files[0]);
+    recent.add(files[1]);
+    recent.add(files[0]);  // again: first, once
+    EXPECT_EQ(recent.list(), (std::vector<std::string>{files[0], files[1]}));
+    for (const auto& file : files) recent.add(file);
+    EXPECT_EQ(recent.list().size(), cli::RecentFiles::kKept);
+    EXPECT_EQ(recent.list().front(), files.back());
+  }
+  std::filesystem::remove(files.back());
+  const cli::RecentFiles again(list_path);
+  EXPECT_EQ(again.list().size(), cli::RecentFiles::kKept - 1) << "a file since removed is not offered";
+  EXPECT_EQ(again.list().front(), files[10]);
+  std::ofstream(list_path) << "{ broken";
+  EXPECT_TRUE(cli::RecentFiles(list_path).list().empty()) << "an unreadable list is an empty one";
 }
 
 TEST(MarkerEditor, PairsAddMoveRemoveWithUndoAndOneMarkerPerVertex) {

@@ -35,6 +35,7 @@
 #include "gui/input_queue.h"
 #include "gui/pose_editor.h"
 #include "gui/profiler_panel.h"
+#include "gui/recent_files.h"
 #include "gui/recovery.h"
 #include "gui/restore_prompt.h"
 #include "gui/synthetic_drag.h"
@@ -385,6 +386,8 @@ class EditorApp {
   char path_buffer_[1024] = {};
   std::string status_;
   std::string error_message_;
+  std::unique_ptr<RecentFiles> recent_;     // beside the recovery file
+  std::vector<std::string> recent_shown_;    // while the Open box is up
   std::string open_failure_;
   std::string last_open_request_;  // the path last given to Open, a drop or the command line  // shown in the "Could not open" dialog until dismissed
   std::vector<std::string> dropped_paths_;

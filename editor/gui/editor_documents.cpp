@@ -8,6 +8,7 @@ void EditorApp::start_from_options() {
     set_mode(Mode::Transfer);
     transfer_->open(options_.transfer);
   }
+  recent_ = std::make_unique<RecentFiles>((options_.recovery_file.empty() ? default_recovery_path() : options_.recovery_file).parent_path() / "recent.json");
   recovery_ = std::make_unique<RecoveryWriter>(options_.recovery_file.empty() ? default_recovery_path() : options_.recovery_file,
                                                [](const Session& session) { print_json_line({{"event", "recovery"}, {"digest", session_digest(session)}}); });
   if (std::filesystem::exists(recovery_->path()) || std::filesystem::exists(transfer_recovery_path())) {
@@ -219,6 +220,9 @@ void EditorApp::install(Loaded loaded_document) {
     output_path_ = options_.output;
   }
   glfwSetWindowTitle(window_, ("hdeform — " + mesh_name_).c_str());
+  if (recent_ && !names_builtin_shape(last_open_request_) && !last_open_request_.empty() && std::filesystem::exists(last_open_request_)) {
+    recent_->add(std::filesystem::absolute(last_open_request_).lexically_normal().string());
+  }
   status_ = "Opened " + mesh_name_;
   if (!after_open_note_.empty()) status_ += ". " + after_open_note_;
   after_open_note_.clear();

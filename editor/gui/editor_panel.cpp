@@ -237,7 +237,9 @@ void EditorApp::draw_dialogs() {
     if (choice != RestoreChoice::Undecided) answer_restore(choice);
   }
   draw_open_failure();
-  if (const auto path = path_prompt("Open", open_dialog_, path_buffer_, pressed(GLFW_KEY_ESCAPE))) open_path(*path);
+  if (open_dialog_ && recent_shown_.empty() && recent_) recent_shown_ = recent_->list();
+  if (!open_dialog_) recent_shown_.clear();
+  if (const auto path = path_prompt("Open", open_dialog_, path_buffer_, pressed(GLFW_KEY_ESCAPE), recent_shown_)) open_path(*path);
   if (const auto path = path_prompt("Save as", save_dialog_, path_buffer_, pressed(GLFW_KEY_ESCAPE)); path && save(*path)) output_path_ = *path;
   if (quit_dialog_) ImGui::OpenPopup("Quit");
   if (ImGui::BeginPopupModal("Quit", nullptr, ImGuiWindowFlags_AlwaysAutoResize)) {

@@ -2,9 +2,12 @@
 
 #include <imgui.h>
 
+#include <cstdio>
+
 namespace hdeform::cli {
 
-std::optional<std::string> path_prompt(const char* title, bool& open, std::span<char> buffer, bool cancel_pressed) {
+std::optional<std::string> path_prompt(const char* title, bool& open, std::span<char> buffer, bool cancel_pressed,
+                                       std::span<const std::string> suggestions) {
   if (open && !ImGui::IsPopupOpen(title)) ImGui::OpenPopup(title);
   if (!ImGui::BeginPopupModal(title, nullptr, ImGuiWindowFlags_AlwaysAutoResize)) return std::nullopt;
   std::optional<std::string> chosen;
@@ -12,7 +15,17 @@ std::optional<std::string> path_prompt(const char* title, bool& open, std::span<
   // Focused when it appears, and all selected: typing replaces the suggestion.
   if (ImGui::IsWindowAppearing()) ImGui::SetKeyboardFocusHere();
   const bool entered = ImGui::InputText("Path", buffer.data(), buffer.size(), ImGuiInputTextFlags_EnterReturnsTrue | ImGuiInputTextFlags_AutoSelectAll);
-  if (ImGui::Button(title) || entered) {
+  bool picked = false;
+  if (!suggestions.empty()) {
+    ImGui::TextDisabled("Recent");
+    for (const auto& suggestion : suggestions) {
+      if (ImGui::Selectable(suggestion.c_str(), suggestion == buffer.data(), ImGuiSelectableFlags_AllowDoubleClick)) {
+        std::snprintf(buffer.data(), buffer.size(), "%s", suggestion.c_str());
+        picked = ImGui::IsMouseDoubleClicked(ImGuiMouseButton_Left);
+      }
+    }
+  }
+  if (ImGui::Button(title) || entered || picked) {
     open = false;
     ImGui::CloseCurrentPopup();
     chosen = std::string(buffer.data());

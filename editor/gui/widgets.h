@@ -9,6 +9,9 @@ namespace hdeform::cli {
 // A modal that asks for a path (`title` names it and its confirm button), its box focused with
 // the text selected. Opens while `open` is set; returns the text when confirmed (Enter or the button) and clears `open` then, or when
 // cancelled (the button or `cancel_pressed`, the frame's Escape).
-std::optional<std::string> path_prompt(const char* title, bool& open, std::span<char> buffer, bool cancel_pressed);
+// `suggestions` (recent files) are listed below the box: a click puts one in the box, a double
+// click chooses it.
+std::optional<std::string> path_prompt(const char* title, bool& open, std::span<char> buffer, bool cancel_pressed,
+                                       std::span<const std::string> suggestions = {});
 
 }  // namespace hdeform::cli
