@@ -12,9 +12,9 @@
 #include "hdeform/errors.h"
 #include "hdeform/trace.h"
 #include "hdeform/update_pipeline.h"
+#include "hdeform/stopwatch.h"
 #ifdef HDEFORM_WITH_ENGINE
 #include "render_bench.h"
-#include "hdeform/stopwatch.h"
 #endif
 
 namespace hdeform::cli {

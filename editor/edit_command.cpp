@@ -11,9 +11,9 @@
 #include "hdeform/mesh_io.h"
 #include "hdeform/shape_metrics.h"
 #include "session.h"
+#include "hdeform/stopwatch.h"
 #ifdef HDEFORM_WITH_ENGINE
 #include "render_support.h"
-#include "hdeform/stopwatch.h"
 #endif
 
 namespace hdeform::cli {

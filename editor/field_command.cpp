@@ -7,9 +7,9 @@
 #include "hdeform/harmonic_field.h"
 #include "hdeform/laplacian.h"
 #include "hdeform/mesh_check.h"
+#include "hdeform/stopwatch.h"
 #ifdef HDEFORM_WITH_ENGINE
 #include "render_support.h"
-#include "hdeform/stopwatch.h"
 #endif
 
 namespace hdeform::cli {
