@@ -298,6 +298,7 @@ std::string Document::solver_message() const {
 
 const Eigen::VectorXd* Document::field() const { return deformer_ ? &deformer_->field() : nullptr; }
 const DeformerTimings* Document::setup_timings() const { return deformer_ ? &deformer_->timings() : nullptr; }
+std::vector<std::string> Document::warnings() const { return deformer_ ? deformer_->warnings() : std::vector<std::string>{}; }
 
 void Document::set_options(const DeformerOptions& options) {
   options_ = options;

@@ -103,6 +103,8 @@ class Document {
   // The harmonic field of the ready deformer, or nullptr.
   const Eigen::VectorXd* field() const;
   const DeformerTimings* setup_timings() const;
+  // What the ready deformer found about the mesh and the selection (Deformer::warnings).
+  std::vector<std::string> warnings() const;
   double last_update_ms() const { return last_update_ms_.load(); }
   const DeformerOptions& options() const { return options_; }
   void set_options(const DeformerOptions& options);

@@ -325,7 +325,8 @@ void EditorApp::step() {
 void EditorApp::announce_solver_state() {
   switch (document_->solver_state()) {
     case Document::SolverState::Ready:
-      print_json_line({{"event", "solver"}, {"state", "ready"}, {"factor_ms", document_->setup_timings()->factor_ms}});
+      solver_warnings_ = document_->warnings();
+      print_json_line({{"event", "solver"}, {"state", "ready"}, {"factor_ms", document_->setup_timings()->factor_ms}, {"warnings", solver_warnings_}});
       break;
     case Document::SolverState::Failed:
       print_json_line({{"event", "solver"}, {"state", "failed"}, {"message", document_->solver_message()}});

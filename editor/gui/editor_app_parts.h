@@ -251,6 +251,7 @@ class EditorApp {
   // stay in view at any window height.
   void draw_panel();
   void draw_footer();
+  std::vector<std::string> shown_notes() const;
   void draw_controls();
   void draw_pose_editor();
 
@@ -389,6 +390,7 @@ class EditorApp {
   std::unique_ptr<RecentFiles> recent_;     // beside the recovery file
   std::vector<std::string> recent_shown_;    // while the Open box is up
   std::string open_failure_;
+  std::vector<std::string> solver_warnings_;  // the ready deformer's findings, shown in the panel
   std::string last_open_request_;  // the path last given to Open, a drop or the command line  // shown in the "Could not open" dialog until dismissed
   std::vector<std::string> dropped_paths_;
   Mode mode_ = Mode::Edit;

@@ -12,7 +12,9 @@ void EditorApp::draw_panel() {
   const auto wrapped_height = [wrap](const std::string& text) { return text.empty() ? 0.0f : ImGui::CalcTextSize(text.c_str(), nullptr, false, wrap).y; };
   const ImGuiStyle& style = ImGui::GetStyle();
   const int figure_lines = editing && document_ ? 5 : 0;
-  const float footer = editing ? style.ItemSpacing.y * 4 + style.WindowPadding.y + wrapped_height(status_) + wrapped_height(error_message_) +
+  float notes = 0.0f;
+  for (const auto& note : shown_notes()) notes += wrapped_height(note) + style.ItemSpacing.y;
+  const float footer = editing ? style.ItemSpacing.y * 4 + style.WindowPadding.y + wrapped_height(status_) + wrapped_height(error_message_) + notes +
                                      static_cast<float>(figure_lines) * ImGui::GetTextLineHeightWithSpacing()
                                : 0.0f;
   ImGui::BeginChild("controls", ImVec2(0, -footer));
@@ -33,11 +35,8 @@ void EditorApp::draw_footer() {
     ImGui::Text("Input to screen: %s", percentile_text(statistics_.latencies()).c_str());
   }
   ImGui::TextWrapped("%s", status_.c_str());
-  if (!error_message_.empty()) {
-    ImGui::PushStyleColor(ImGuiCol_Text, ImVec4(1, 0.45f, 0.45f, 1));
-    ImGui::TextWrapped("%s", error_message_.c_str());
-    ImGui::PopStyleColor();
-  }
+  for (const auto& note : shown_notes()) wrapped_in_color(ImVec4(1.0f, 0.8f, 0.3f, 1.0f), note);
+  if (!error_message_.empty()) wrapped_in_color(ImVec4(1, 0.45f, 0.45f, 1), error_message_);
 }
 
 void EditorApp::draw_controls() {
@@ -144,9 +143,10 @@ void EditorApp::draw_controls() {
   switch (document_->solver_state()) {
     case Document::SolverState::NoHandle: ImGui::TextWrapped("Paint a handle (3) to deform."); break;
     case Document::SolverState::Building: ImGui::TextWrapped("%s...", document_->solver_message().c_str()); break;
-    case Document::SolverState::Failed: ImGui::TextColored(ImVec4(1, 0.4f, 0.4f, 1), "%s", document_->solver_message().c_str()); break;
+    case Document::SolverState::Failed: wrapped_in_color(ImVec4(1, 0.45f, 0.45f, 1), document_->solver_message()); break;
     case Document::SolverState::Ready: break;
   }
+
   bool refine = document_->refine();
   if (ImGui::Checkbox("Refine (as rigid as possible)", &refine)) {
     document_->set_refine(refine);
@@ -299,6 +299,14 @@ void EditorApp::draw_open_failure() {
   ImGui::SameLine();
   if (ImGui::Button("Close (Esc)") || pressed(GLFW_KEY_ESCAPE)) close();
   ImGui::EndPopup();
+}
+
+// The ready deformer's findings about the mesh and the selection, in the footer: always in view.
+std::vector<std::string> EditorApp::shown_notes() const {
+  std::vector<std::string> notes;
+  if (!document_ || document_->solver_state() != Document::SolverState::Ready) return notes;
+  for (const auto& warning : solver_warnings_) notes.push_back("Note: " + warning);
+  return notes;
 }
 
 }  // namespace hdeform::cli::gui

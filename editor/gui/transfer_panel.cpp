@@ -31,7 +31,7 @@ void TransferView::draw_panel(bool escape_pressed) {
   }
   if (!sides_[0]) {
     ImGui::TextWrapped("Or drop OBJ files on the views: the source rest (then its poses) on the left, the target on the right.");
-    if (!error_.empty()) ImGui::TextColored(ImVec4(1, 0.4f, 0.4f, 1), "%s", error_.c_str());
+    if (!error_.empty()) wrapped_in_color(ImVec4(1, 0.45f, 0.45f, 1), error_);
     return;
   }
   ImGui::Text("source %ld vertices, %zu poses; target %ld vertices", static_cast<long>(sides_[0]->rest.vertex_count()), poses_.size(),
@@ -131,7 +131,7 @@ void TransferView::draw_panel(bool escape_pressed) {
   }
   ImGui::Separator();
   ImGui::TextWrapped("%s", status_.c_str());
-  if (!error_.empty()) ImGui::TextColored(ImVec4(1, 0.4f, 0.4f, 1), "%s", error_.c_str());
+  if (!error_.empty()) wrapped_in_color(ImVec4(1, 0.45f, 0.45f, 1), error_);
 
   if (const auto path = path_prompt("Save markers as", save_as_open_, dialog_path_, escape_pressed)) save_markers(*path);
   if (const auto folder = path_prompt("Export sequence to folder", export_open_, dialog_path_, escape_pressed)) export_sequence(*folder);

@@ -6,6 +6,12 @@
 
 namespace hdeform::cli {
 
+void wrapped_in_color(const ImVec4& color, const std::string& text) {
+  ImGui::PushStyleColor(ImGuiCol_Text, color);
+  ImGui::TextWrapped("%s", text.c_str());
+  ImGui::PopStyleColor();
+}
+
 std::optional<std::string> path_prompt(const char* title, bool& open, std::span<char> buffer, bool cancel_pressed,
                                        std::span<const std::string> suggestions) {
   if (open && !ImGui::IsPopupOpen(title)) ImGui::OpenPopup(title);

@@ -4,7 +4,12 @@
 #include <span>
 #include <string>
 
+struct ImVec4;
+
 namespace hdeform::cli {
+
+// Text in a colour (errors, notes) that wraps at the window's edge instead of running past it.
+void wrapped_in_color(const ImVec4& color, const std::string& text);
 
 // A modal that asks for a path (`title` names it and its confirm button), its box focused with
 // the text selected. Opens while `open` is set; returns the text when confirmed (Enter or the button) and clears `open` then, or when
