@@ -239,6 +239,12 @@ class EditorGui : public ::testing::Test {
             "--output", dir.file("saved.obj").string(), "--screenshot-dir", dir.path().string(), "--validation"};
   }
 
+  // A built-in shape with its demo's sink and handle painted, the recovery file in the test's folder.
+  std::vector<std::string> shape_arguments(const std::string& shape_name, const char* restore) const {
+    return {shape_name, "--size", std::to_string(kWidth) + "x" + std::to_string(kHeight), "--recovery-file", dir.file("recovery.json").string(),
+            "--restore", restore, "--validation"};
+  }
+
   // The editor's window: found by title, given the keyboard focus, the pointer over its view.
   void find_window() {
     const auto deadline = Clock::now() + 60s;
@@ -666,8 +672,7 @@ TEST_F(EditorGui, ABadMeshOnTheCommandLineIsExplainedInTheWindowAndOpenRecovers)
 // typed into the fields never reach the shortcuts (1 would pick the paint tool, 0 reset the pose).
 TEST_F(EditorGui, TypedValuesAreUndoableStepsAndReachTheRecoveryFile) {
   const auto recovery = dir.file("recovery.json");
-  Editor editor({"shape:cactus", "--size", std::to_string(kWidth) + "x" + std::to_string(kHeight), "--recovery-file", recovery.string(),
-                 "--restore", "no", "--validation"});
+  Editor editor(shape_arguments("shape:cactus", "no"));
   editor.wait_for("opened");
   ASSERT_NO_FATAL_FAILURE(find_window());
   EXPECT_EQ(editor.settled_solver_state(), "ready");
@@ -749,8 +754,7 @@ TEST_F(EditorGui, AfterSigtermTheNextStartOffersTheSessionBesideTheRequestedMesh
 // cursor went along the axis on screen.
 TEST_F(EditorGui, DraggingTheGizmosXAxisMovesTheHandleAlongXOnly) {
   const auto recovery = dir.file("recovery.json");
-  Editor editor({"shape:cactus:24", "--size", std::to_string(kWidth) + "x" + std::to_string(kHeight), "--recovery-file", recovery.string(),
-                 "--restore", "no", "--validation"});
+  Editor editor(shape_arguments("shape:cactus:24", "no"));
   editor.wait_for("opened");
   ASSERT_NO_FATAL_FAILURE(find_window());
   EXPECT_EQ(editor.settled_solver_state(), "ready");
