@@ -40,6 +40,7 @@
 #include "gui/restore_prompt.h"
 #include "gui/synthetic_drag.h"
 #include "gui/view_navigation.h"
+#include "gui/view_picking.h"
 #include "transfer_state.h"
 #include "gui/transfer_view.h"
 #include "gui/widgets.h"
@@ -373,8 +374,7 @@ class EditorApp {
   std::unique_ptr<engine::GeometryExchange> exchange_;
   std::unique_ptr<engine::GeometryPublisher> publisher_;
   std::unique_ptr<Document> document_;
-  std::unique_ptr<MeshPicker> picker_;
-  std::uint64_t picker_version_ = 0;
+  ViewPicker picker_;  // follows the geometry on screen (shown_geometry())
   std::unique_ptr<RecoveryWriter> recovery_;
 
   BackgroundTask<Loaded> load_;  // reading a mesh or session and replaying it

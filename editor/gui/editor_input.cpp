@@ -68,10 +68,7 @@ Eigen::ParametrizedLine<float, 3> EditorApp::cursor_ray(const ImVec2& cursor) co
 
 const engine::GeometrySnapshot* EditorApp::shown_geometry() {
   const engine::GeometrySnapshot* shown = exchange_ ? exchange_->acquire() : nullptr;
-  if (shown == nullptr) return nullptr;
-  if (!picker_) picker_ = std::make_unique<MeshPicker>(document_->rest().triangles, shown->position_normal);
-  else if (picker_version_ != shown->version) picker_->refit(shown->position_normal);
-  picker_version_ = shown->version;
+  picker_.follow(document_->rest().triangles, shown);
   return shown;
 }
 
@@ -133,7 +130,7 @@ void EditorApp::continue_handle_drag(const ImVec2& cursor, Clock::time_point eve
 std::optional<std::pair<ImVec2, float>> EditorApp::brush_on_screen(const ImVec2& mouse) {
   if (shown_geometry() == nullptr) return std::nullopt;
   const auto ray = cursor_ray(mouse);
-  const auto hit = picker_->pick(ray);
+  const auto hit = picker_.current()->pick(ray);
   if (!hit && !tools_.paint_through) return std::nullopt;
   const Eigen::Vector3f point = hit ? hit->point : Eigen::Vector3f(ray.pointAt((camera_.target - camera_.position()).norm()));
   const Eigen::Vector3f right = (camera_.target - camera_.position()).cross(camera_.up_vector()).normalized();
@@ -156,7 +153,7 @@ void EditorApp::paint_brush(const ImVec2& mouse) {
                                        camera_.view_projection(static_cast<float>(extent.width) / static_cast<float>(extent.height)),
                                        static_cast<float>(extent.width), static_cast<float>(extent.height));
   } else {
-    const auto hit = picker_->pick(cursor_ray(mouse));
+    const auto hit = picker_.current()->pick(cursor_ray(mouse));
     if (!hit) return;
     vertices = vertices_in_ball(shown->position_normal, hit->point, brush_radius_);
   }
@@ -184,7 +181,7 @@ void EditorApp::paint_lasso() {
 
 void EditorApp::paint_connected(const ImVec2& mouse) {
   if (!is_paint_tool(tools_.tool) || shown_geometry() == nullptr) return;
-  const auto hit = picker_->pick(cursor_ray(mouse));
+  const auto hit = picker_.current()->pick(cursor_ray(mouse));
   if (!hit) return;
   const auto vertices = connected_vertices(hit->vertex, document_->adjacency());
   finish_action(std::string(tools_.erase ? "erase " : "paint ") + "the connected part as " + layer_name(),

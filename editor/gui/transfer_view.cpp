@@ -383,14 +383,11 @@ ImVec2 TransferView::project(int side, const Eigen::Vector3d& point) const {
 
 std::optional<int> TransferView::pick_vertex(int side, const ImVec2& pixel) {
   Side& s = *sides_[side];
-  const engine::GeometrySnapshot* shown = s.exchange->acquire();
-  if (shown == nullptr) return std::nullopt;
-  if (!s.picker) s.picker = std::make_unique<MeshPicker>(s.rest.triangles, shown->position_normal);
-  else if (s.picker_version != shown->version) s.picker->refit(shown->position_normal);
-  s.picker_version = shown->version;
+  MeshPicker* picker = s.picker.follow(s.rest.triangles, s.exchange->acquire());
+  if (picker == nullptr) return std::nullopt;
   const auto ray = s.camera.ray(pixel.x - static_cast<float>(s.area.offset.x), pixel.y - static_cast<float>(s.area.offset.y),
                                 static_cast<float>(s.area.extent.width), static_cast<float>(s.area.extent.height));
-  const auto hit = s.picker->pick(ray);
+  const auto hit = picker->pick(ray);
   if (!hit) return std::nullopt;
   return hit->vertex;
 }

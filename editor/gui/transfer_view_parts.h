@@ -9,7 +9,7 @@
 #include "hdeform/engine/geometry_exchange.h"
 #include "hdeform/engine/mesh_renderer.h"
 #include "cli_support.h"
-#include "mesh_picker.h"
+#include "gui/view_picking.h"
 
 namespace hdeform::cli {
 
@@ -19,8 +19,7 @@ struct TransferView::Side {
   std::unique_ptr<engine::GeometryExchange> exchange;
   std::unique_ptr<engine::GeometryPublisher> publisher;
   std::unique_ptr<engine::MeshRenderer> renderer;
-  std::unique_ptr<MeshPicker> picker;
-  std::uint64_t picker_version = 0;
+  ViewPicker picker;
   engine::Camera camera;
   bool camera_fitted = false;
   VkRect2D area{};
