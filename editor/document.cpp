@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <new>
 
+#include "background_task.h"
 #include "hdeform/errors.h"
 
 namespace hdeform::cli {
@@ -17,14 +18,11 @@ bool same_constraints(const EditConstraints& a, const EditConstraints& b) {
 }  // namespace
 
 struct Document::Build {
-  std::thread thread;
-  std::atomic<bool> done{false};
-  std::unique_ptr<Deformer> deformer;
-  std::exception_ptr error;
   EditConstraints constraints;
   std::shared_ptr<const Mesh> rest;
   std::mutex mutex;
-  std::string stage;
+  std::string stage;  // with mutex: the set-up's current stage, for the panel
+  BackgroundTask<std::unique_ptr<Deformer>> task;  // last: stops before what it writes to goes
 };
 
 Document::Document(Session session, Mesh base, DeformerOptions options, Publish publish)
@@ -43,7 +41,7 @@ Document::Document(Session session, Mesh base, DeformerOptions options, Publish 
 
 Document::~Document() {
   stop_pipeline();
-  if (build_ && build_->thread.joinable()) build_->thread.join();
+  if (build_) build_->task.abandon();
 }
 
 EditStage Document::current_stage() const {
@@ -318,27 +316,22 @@ void Document::start_build() {
   Build* build = build_.get();
   DeformerOptions options = options_;
   options.prepare_refinement = refine_;  // set up with the rest, off the frame loop
-  build->thread = std::thread([build, options] {
-    try {
-      build->deformer = std::make_unique<Deformer>(*build->rest, build->constraints, options, [build](std::string_view stage) {
-        std::lock_guard lock(build->mutex);
-        build->stage = std::string(stage);
-      });
-    } catch (...) {
-      build->error = std::current_exception();
-    }
-    build->done = true;
+  build->task.start("set-up", [build, options] {
+    return std::make_unique<Deformer>(*build->rest, build->constraints, options, [build](std::string_view stage) {
+      std::lock_guard lock(build->mutex);
+      build->stage = std::string(stage);
+    });
   });
 }
 
 void Document::install_build() {
-  if (build_->thread.joinable()) build_->thread.join();
+  auto outcome = build_->task.take();
   std::unique_ptr<Build> build = std::move(build_);
   const bool still_current = same_constraints(build->constraints, current_stage().constraints()) && build->rest == rest_;
   if (!still_current) return;  // the next poll starts a build for the new constraints
-  if (build->error) {
+  if (outcome.exception) {
     try {
-      std::rethrow_exception(build->error);
+      std::rethrow_exception(outcome.exception);
     } catch (const std::bad_alloc&) {
       failure_ = "out of memory while setting up the solve (a smaller region of interest needs less)";
     } catch (const std::exception& error) {
@@ -352,7 +345,7 @@ void Document::install_build() {
   }
   failure_.clear();
   stop_pipeline();
-  deformer_ = std::move(build->deformer);
+  deformer_ = std::move(*outcome.result);
   deformer_constraints_ = build->constraints;
   deformer_rest_ = rest_.get();
   request_base_ = last_request_;
@@ -380,7 +373,7 @@ void Document::install_build() {
 }
 
 void Document::poll() {
-  if (build_ && build_->done) install_build();
+  if (build_ && build_->task.done()) install_build();
   if (build_) return;
   const EditConstraints constraints = current_stage().constraints();
   if (constraints.handles.empty()) {
@@ -405,8 +398,7 @@ void Document::wait_until_ready() {
   for (;;) {
     poll();
     if (!build_) return;
-    build_->thread.join();
-    build_->done = true;
+    build_->task.wait();
   }
 }
 

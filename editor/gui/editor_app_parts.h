@@ -27,7 +27,7 @@
 #include <thread>
 #include "cli_support.h"
 #include "document.h"
-#include "gui/background_task.h"
+#include "background_task.h"
 #include "gui/edit_tools.h"
 #include "gui/frame_statistics.h"
 #include "gui/handle_drag.h"

@@ -20,7 +20,7 @@
 #include "hdeform/engine/vulkan_context.h"
 #include "hdeform/mesh.h"
 #include "hdeform/transfer.h"
-#include "gui/background_task.h"
+#include "background_task.h"
 #include "marker_editor.h"
 #include "transfer_state.h"
 
