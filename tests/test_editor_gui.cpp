@@ -721,8 +721,12 @@ TEST_F(EditorGui, AfterSigtermTheNextStartOffersTheSessionBesideTheRequestedMesh
     ASSERT_NO_FATAL_FAILURE(find_window());
     move_to(pose_field_pixels(editor).move_x);
     xdotool("click --repeat 2 --delay 60 1");
-    xdotool("type --delay 60 0.2");  // still in the field, not committed: the signal must keep it anyway
-    std::this_thread::sleep_for(300ms);
+    xdotool("type --delay 60 0.2");  // still in the field, not committed
+    // Applied and in the recovery file (the periodic write), though never committed: the signal
+    // must keep that file for the next start rather than remove it as a clean exit does.
+    ASSERT_TRUE(recovery_holding(recovery, [](const cli::Session& s) {
+      return static_cast<float>(s.current.handles.at(0).transform.shift.x()) == 0.2f;
+    }));
     const auto before = editor.event_count();
     editor.send(SIGTERM);
     const json signal = editor.wait_for("signal", 30s, before);
