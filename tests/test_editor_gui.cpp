@@ -719,6 +719,9 @@ TEST_F(EditorGui, AfterSigtermTheNextStartOffersTheSessionBesideTheRequestedMesh
     Editor editor(first);
     editor.wait_for("opened");
     ASSERT_NO_FATAL_FAILURE(find_window());
+    // As in the typed-values test: type once the set-up is done (under ThreadSanitizer its frames
+    // are slow enough to split a double click).
+    EXPECT_EQ(editor.settled_solver_state(), "ready");
     move_to(pose_field_pixels(editor).move_x);
     xdotool("click --repeat 2 --delay 60 1");
     xdotool("type --delay 60 0.2");  // still in the field, not committed
