@@ -3,6 +3,8 @@
 #include "hdeform/deformation_gradient.h"
 #include "hdeform/deformer.h"
 #include "hdeform/errors.h"
+#include "hdeform/constraint_io.h"
+#include "hdeform/handle_shape.h"
 #include "hdeform/laplacian.h"
 #include "hdeform/transfer.h"
 #include "hdeform/mesh_check.h"
@@ -63,6 +65,75 @@ TEST(MeshCheck, TroubledGeometryStillDeformsAndTheUnconstrainedPartsStayPut) {
   // The unconstrained copy and the unreferenced vertex stay exactly where they were.
   for (Eigen::Index v = n; v <= 2 * n; ++v) EXPECT_EQ(positions.row(v), mesh.positions.row(v)) << "vertex " << v;
   EXPECT_GT((positions.topRows(n) - mesh.positions.topRows(n)).cwiseAbs().maxCoeff(), 0.05);
+}
+
+// A band round the middle of a shape (|z - middle| < 4% of its height): the whole of it, or
+// only the part on the +y side of the centre, as a brush that paints what faces the camera leaves it.
+std::vector<int> middle_band(const Mesh& mesh, bool half) {
+  const double low = mesh.positions.col(2).minCoeff(), high = mesh.positions.col(2).maxCoeff();
+  const double middle = 0.5 * (low + high), width = 0.04 * (high - low);
+  const double centre_y = mesh.positions.col(1).mean();
+  std::vector<int> band;
+  for (Eigen::Index v = 0; v < mesh.vertex_count(); ++v) {
+    if (std::abs(mesh.positions(v, 2) - middle) < width && (!half || mesh.positions(v, 1) > centre_y)) {
+      band.push_back(static_cast<int>(v));
+    }
+  }
+  return band;
+}
+
+TEST(HandleShape, HalfRingsAreFoundAndRingsCapsAndPatchesAreNot) {
+  for (const auto kind : {ShapeKind::Cylinder, ShapeKind::Bar, ShapeKind::Sphere, ShapeKind::Cactus}) {
+    const auto shape = make_shape(kind, 32);
+    SCOPED_TRACE(std::string(to_string(kind)));
+    const auto half = partial_ring_degrees(shape.mesh, middle_band(shape.mesh, true));
+    ASSERT_TRUE(half.has_value());
+    EXPECT_GT(*half, 150.0);
+    EXPECT_LT(*half, 230.0);
+    EXPECT_FALSE(partial_ring_degrees(shape.mesh, middle_band(shape.mesh, false)).has_value());
+    EXPECT_FALSE(partial_ring_degrees(shape.mesh, shape.demo_constraints.handles.front()).has_value());
+  }
+  const Mesh plane = test::planar_grid(20);
+  std::vector<int> patch;
+  for (int v = 0; v < 60; ++v) patch.push_back(v);
+  EXPECT_FALSE(partial_ring_degrees(plane, patch).has_value());
+}
+
+// The reason for the warning: under a half ring the field is lopsided round the section, under a
+// full ring it is not.
+TEST(HandleShape, AHalfRingsFieldFallsOffRoundTheOtherSide) {
+  const auto shape = make_shape(ShapeKind::Cylinder, 32);
+  auto field_round_the_band = [&](bool half) {
+    EditConstraints constraints;
+    constraints.handles = {middle_band(shape.mesh, half)};
+    const double low = shape.mesh.positions.col(2).minCoeff();
+    for (Eigen::Index v = 0; v < shape.mesh.vertex_count(); ++v) {
+      if (shape.mesh.positions(v, 2) < low + 1e-9) constraints.fixed.push_back(static_cast<int>(v));
+    }
+    Deformer deformer(shape.mesh, constraints);
+    double lowest = 1.0;
+    for (int v : middle_band(shape.mesh, false)) lowest = std::min(lowest, deformer.field()(v));
+    return std::pair(lowest, deformer.warnings());
+  };
+  const auto [ring_lowest, ring_warnings] = field_round_the_band(false);
+  const auto [half_lowest, half_warnings] = field_round_the_band(true);
+  EXPECT_EQ(ring_lowest, 1.0);
+  EXPECT_LT(half_lowest, 0.9);
+  EXPECT_FALSE(any_contains(ring_warnings, "wraps only"));
+  EXPECT_TRUE(any_contains(half_warnings, "the handle wraps only about"));
+}
+
+TEST(HandleShape, TheBenchmarkAndBuddhaHandlesAreNotFlagged) {
+  HDEFORM_REQUIRE_SHARED_MESHES();
+  const auto meshes = test::shared_meshes();
+  for (const auto& [folder, name] : std::vector<std::pair<std::string, std::string>>{
+           {"deformation-benchmark", "bar"}, {"deformation-benchmark", "cactus"}, {"deformation-benchmark", "cylinder"},
+           {"deformation-benchmark", "plane"}, {"buddha", "buddha-206k"}, {"buddha", "buddha-51k"}}) {
+    SCOPED_TRACE(name);
+    const auto mesh = read_obj(meshes / folder / (name + ".obj"));
+    const auto handle = read_vertex_indices(meshes / folder / (name + "-handle.txt"), mesh.vertex_count());
+    EXPECT_FALSE(partial_ring_degrees(mesh, handle).has_value());
+  }
 }
 
 // Meshes that no reader would build but a caller of the library can: each must be refused by

@@ -13,6 +13,7 @@
 #include "arap_refinement.h"
 #include "hdeform/deformation_field.h"
 #include "hdeform/errors.h"
+#include "hdeform/handle_shape.h"
 #include "hdeform/harmonic_field.h"
 #include "hdeform/laplacian.h"
 #include "hdeform/poisson.h"
@@ -93,6 +94,7 @@ Deformer::Deformer(Mesh rest, EditConstraints constraints, DeformerOptions optio
                      "(value 0) as well as the handle (value 1), or it is 1 everywhere and undefined as a guide. Fix some "
                      "vertices there, or give a region of interest (the vertices outside it stay fixed).");
   }
+  handle_warnings_ = handle_shape_warnings(rest_, constraints_);
   stage.emplace("Laplacian", "set-up");
   const auto laplacian = cotangent_laplacian(rest_, weights_);
   timings_.laplacian_ms = milliseconds_since(start);
@@ -266,6 +268,7 @@ Deformer::~Deformer() {
 std::vector<std::string> Deformer::warnings() const {
   auto lines = inspection_.warnings();
   lines.insert(lines.end(), partition_.warnings.begin(), partition_.warnings.end());
+  lines.insert(lines.end(), handle_warnings_.begin(), handle_warnings_.end());
   return lines;
 }
 

@@ -82,7 +82,7 @@ class Deformer {
   // The harmonic field h: 1 at every handle vertex, 0 at fixed vertices.
   const Eigen::VectorXd& field() const { return field_; }
   std::size_t handle_count() const { return constraints_.handles.size(); }
-  // Mesh and partition findings the user should see.
+  // Mesh, partition and handle-shape findings the user should see.
   std::vector<std::string> warnings() const;
 
   const UpdateTimings& last_update() const { return last_update_; }
@@ -121,6 +121,7 @@ class Deformer {
   UpdateTimings last_update_;
   CotangentWeights weights_;
   MeshInspection inspection_;
+  std::vector<std::string> handle_warnings_;
   VertexPartition partition_;
   std::unique_ptr<DirichletSystem> system_;
   std::unique_ptr<class PoissonAssembler> assembler_;
