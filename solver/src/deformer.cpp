@@ -1,6 +1,7 @@
 #include "hdeform/deformer.h"
 
 #include <tbb/flow_graph.h>
+#include <tbb/task_arena.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -37,6 +38,10 @@ constexpr std::size_t kRowGrain = 1024;
 // Several handles: start ─► field rhs ─► solve q0..q3, s ─► components ─► maps ─► ...
 // Each solve runs its columns concurrently against the one factor: as column groups and, within
 // a group, over subtrees of the elimination tree (SolveSchedule decides the grouping).
+struct Deformer::UpdateArena {
+  tbb::task_arena arena;
+};
+
 struct Deformer::UpdateGraph {
   // Inputs of the update in flight.
   std::span<const HandleTransform> transforms;
@@ -71,7 +76,7 @@ struct Deformer::UpdateGraph {
 };
 
 Deformer::Deformer(Mesh rest, EditConstraints constraints, DeformerOptions options, const ProgressCallback& progress)
-    : rest_(std::move(rest)), constraints_(std::move(constraints)), options_(options) {
+    : rest_(std::move(rest)), constraints_(std::move(constraints)), options_(options), update_arena_(std::make_unique<UpdateArena>()) {
   auto report = [&](std::string_view stage) {
     if (progress) progress(stage);
   };
@@ -115,7 +120,7 @@ Deformer::Deformer(Mesh rest, EditConstraints constraints, DeformerOptions optio
   stage.emplace("update graph", "set-up");
   // The update graph and every buffer it touches, allocated once; the graph attaches to the
   // arena it is created in.
-  update_arena_.execute([this] { graph_ = std::make_unique<UpdateGraph>(); });
+  update_arena_->arena.execute([this] { graph_ = std::make_unique<UpdateGraph>(); });
   auto& g = *graph_;
   const auto free_rows = system_->free_count();
   const auto vertex_count = rest_.vertex_count();
@@ -283,7 +288,7 @@ void Deformer::deform(std::span<const HandleTransform> transforms, Eigen::Matrix
   last_update_ = UpdateTimings{};
   graph_->transforms = transforms;
   graph_->positions = &positions;
-  update_arena_.execute([this] {
+  update_arena_->arena.execute([this] {
     graph_->start.try_put(Message());
     graph_->graph.wait_for_all();
   });
@@ -302,7 +307,7 @@ void Deformer::begin_refinement(const Eigen::MatrixXd& positions) {
     refinement.begin_at_rest();
     return;
   }
-  update_arena_.execute([&] {
+  update_arena_->arena.execute([&] {
     if (handle_count() == 1) {
       const HandleTransform& handle = edited_[0];
       refinement.set_turn_axis(std::abs(handle.angle) > std::numbers::pi ? std::optional<Eigen::Vector3d>(handle.axis) : std::nullopt);
@@ -358,7 +363,7 @@ int Deformer::refine(Eigen::MatrixXd& positions, int max_iterations) {
   while (iterations < max_iterations && !refinement_->status().converged) {
     const trace::Scope traced("refinement iteration", "refinement", refinement_->status().iterations + 1);
     const auto start = Clock::now();
-    update_arena_.execute([this] {
+    update_arena_->arena.execute([this] {
       graph_->refine_start.try_put(Message());
       graph_->graph.wait_for_all();
     });

@@ -12,8 +12,6 @@
 #include <string_view>
 #include <vector>
 
-#include <tbb/task_arena.h>
-
 #include "hdeform/constraints.h"
 #include "hdeform/dirichlet_system.h"
 #include "hdeform/handle_transform.h"
@@ -109,6 +107,7 @@ class Deformer {
   const RefinementOptions& refinement_options() const { return options_.refinement; }
 
  private:
+  struct UpdateArena;
   struct UpdateGraph;
   void prepare_update_triangles();
   void prepare_refinement();
@@ -133,7 +132,7 @@ class Deformer {
   // its master while the TBB workers help. Attached to the constructing thread's arena instead,
   // the graph could only be driven by delegating to a worker, and on 2 cores that left the
   // update's parallel stages one thread (8.0 ms instead of 4.8 ms per buddha-206k update).
-  tbb::task_arena update_arena_;
+  std::unique_ptr<UpdateArena> update_arena_;
   std::unique_ptr<UpdateGraph> graph_;
   std::unique_ptr<detail::ArapRefinement> refinement_;
   std::vector<HandleTransform> edited_;  // the transforms of the last deform()

@@ -12,6 +12,7 @@
 // result stays bit-identical for any number of threads.
 #include <Eigen/Core>
 #include <Eigen/SparseCore>
+#include <memory>
 #include <optional>
 #include <string_view>
 #include <vector>
@@ -31,17 +32,22 @@ SolverBackend default_backend();
 
 class SparseCholesky {
  public:
+  SparseCholesky();
+  ~SparseCholesky();
+  SparseCholesky(SparseCholesky&&) noexcept;
+  SparseCholesky& operator=(SparseCholesky&&) noexcept;
+
   // Analyses and factors a symmetric positive definite matrix (both triangles stored).
   // Throws SolveError when it is not positive definite or the factorization fails.
   void factor(const Eigen::SparseMatrix<double>& matrix, SolverBackend backend);
 
-  bool empty() const { return upper_.rows() == 0; }
-  Eigen::Index size() const { return upper_.rows(); }
+  bool empty() const { return size() == 0; }
+  Eigen::Index size() const;
   SolverBackend backend() const { return backend_; }
-  Eigen::Index factor_nonzeros() const { return upper_.nonZeros(); }
+  Eigen::Index factor_nonzeros() const;
 
   // factor_row()[i]: the row of unknown i in factor order.
-  const std::vector<int>& factor_row() const { return factor_row_; }
+  const std::vector<int>& factor_row() const;
 
   // Solves A X = B in place for a row-major block in factor order: row factor_row()[i] holds the
   // `columns` values of unknown i, consecutive rows `stride` doubles apart. Subtrees of the
@@ -51,30 +57,15 @@ class SparseCholesky {
 
   // How the solve is split: independent subtrees (one list of columns per worker, ascending) and
   // the columns above them, solved after (forward) or before (backward) the subtrees.
-  std::size_t subtree_count() const { return subtrees_.size(); }
+  std::size_t subtree_count() const;
   double top_fraction() const;  // share of the factor's nonzeros outside the subtrees
 
   // Convenience (allocates): X = A⁻¹ B with B and X in natural order, column-major.
   Eigen::MatrixXd solve(const Eigen::MatrixXd& rhs) const;
 
  private:
-  // The columns of L stored last to first, so that the backward sweep (j descending) streams
-  // through memory forwards: read backwards, it runs at half the speed.
-  struct ReversedColumns {
-    std::vector<std::size_t> begin;  // column j: [begin[j], end[j]), diagonal first
-    std::vector<std::size_t> end;
-    std::vector<int> row;
-    std::vector<double> value;
-  };
-
-  void adopt_factor(const Eigen::SparseMatrix<double>& lower);
-  void split_elimination_tree(const Eigen::SparseMatrix<double>& lower);
-
-  Eigen::SparseMatrix<double> upper_;  // Lᵀ in CSC: the rows of L, diagonal last; forward sweep
-  ReversedColumns lower_;              // L; backward sweep
-  std::vector<int> factor_row_;
-  std::vector<std::vector<int>> subtrees_;
-  std::vector<int> top_;
+  struct Factor;  // L in the two layouts the sweeps read, and the elimination tree's split
+  std::unique_ptr<Factor> factor_;
   SolverBackend backend_ = SolverBackend::Eigen;
 };
 
