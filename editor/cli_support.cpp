@@ -26,7 +26,7 @@
 namespace hdeform::cli {
 
 void MeshSource::add_options(CLI::App& command) {
-  auto* mesh = command.add_option("--mesh", mesh_path, "Input mesh (Wavefront OBJ)");
+  auto* mesh = command.add_option("--mesh", mesh_path, "Input mesh (OBJ, PLY, OFF or STL)");
   auto* shape = command.add_option("--shape", shape_name, "Built-in shape instead of --mesh: cactus, bar, cylinder, sphere");
   command.add_option("--resolution", resolution, "Built-in shape resolution (segments around; default 48)");
   mesh->excludes(shape);
@@ -91,7 +91,7 @@ LoadedMesh load_mesh(const MeshSource& source) {
     loaded.demo_transform = shape.demo_transform;
   } else {
     if (source.resolution > 0) throw UsageError("--resolution applies to --shape only");
-    loaded.mesh = read_obj(source.mesh_path);
+    loaded.mesh = read_mesh(source.mesh_path);
   }
   return loaded;
 }
@@ -197,6 +197,13 @@ void refuse_contradictions(const EditConstraints& constraints, const std::string
                          "; a vertex is either fixed or in one handle");
       }
     }
+  }
+}
+
+void refuse_unwritable_mesh_output(const std::string& option, const std::string& output) {
+  const auto format = mesh_format_of(output);
+  if (format != MeshFormat::Obj && format != MeshFormat::Ply) {
+    throw UsageError(option + " " + output + ": meshes are written as .obj or .ply");
   }
 }
 

@@ -119,6 +119,10 @@ void refuse_contradictions(const EditConstraints& constraints, const std::string
 // Refuses (UsageError) an output path that is one of the inputs: inputs are never overwritten.
 void refuse_overwriting_inputs(const std::string& output, const std::vector<std::string>& inputs);
 
+// Refuses (UsageError) a mesh output whose extension is not one that is written (.obj, .ply),
+// before any work is done.
+void refuse_unwritable_mesh_output(const std::string& option, const std::string& output);
+
 // Largest resident set size of this process so far, in MB.
 double peak_rss_mb();
 // Resident set size now, in MB (0 where /proc is unavailable).

@@ -30,7 +30,7 @@ class EditCommand final : public BatchCommand {
     command->add_option("--transform", transform_paths_,
                         "Transform of the matching --handle: 12 numbers [A|t] row-major, or 'twist AX AY AZ PX PY PZ DEG [S]'");
     command->add_option("--roi", roi_path_, "Region of interest: 0-based indices (default: the whole mesh)");
-    command->add_option("--out", out_path_, "Output mesh (OBJ)")->required();
+    command->add_option("--out", out_path_, "Output mesh (.obj or .ply)")->required();
     command->add_option("--steps", steps_, "Simulate a drag: go from the identity to the transform in this many updates")
         ->capture_default_str();
     solver_.add_options(*command);
@@ -63,6 +63,7 @@ class EditCommand final : public BatchCommand {
     inputs.insert(inputs.end(), handle_paths_.begin(), handle_paths_.end());
     inputs.insert(inputs.end(), transform_paths_.begin(), transform_paths_.end());
     refuse_overwriting_inputs(out_path_, inputs);
+    refuse_unwritable_mesh_output("--out", out_path_);
     if (!png_path_.empty()) refuse_overwriting_inputs(png_path_, inputs);
     if (trace_.wanted()) refuse_overwriting_inputs(trace_.path, inputs);
     trace_.begin();
@@ -98,7 +99,7 @@ class EditCommand final : public BatchCommand {
       options.prepare_refinement = session_refines;
       if (transforms.empty()) {
         // Nothing is being edited: the result is the rest shape after the applied stages.
-        write_obj(out_path_, loaded.mesh);
+        write_mesh(out_path_, loaded.mesh);
         trace_.finish();
         print_json_line({{"command", "edit"}, {"mesh", mesh_name}, {"session", session_path_}, {"vertices", loaded.mesh.vertex_count()},
                          {"triangles", loaded.mesh.triangle_count()}, {"handles", 0}, {"output", out_path_}});
@@ -175,7 +176,7 @@ class EditCommand final : public BatchCommand {
     }
 
     progress("writing " + out_path_);
-    write_obj(out_path_, Mesh{positions, deformer.rest().triangles});
+    write_mesh(out_path_, Mesh{positions, deformer.rest().triangles});
     nlohmann::json picture;
 #ifdef HDEFORM_WITH_ENGINE
     if (!png_path_.empty()) {

@@ -10,13 +10,13 @@ class GuiCommand final : public BatchCommand {
  public:
   CLI::App* add_to(CLI::App& app) override {
     auto* command = app.add_subcommand("gui", "The interactive editor (without a mesh: the built-in cactus, ready for Figure 1)");
-    command->add_option("mesh", options_.mesh, "Mesh to open (OBJ), or shape:NAME[:RESOLUTION]");
+    command->add_option("mesh", options_.mesh, "Mesh to open (OBJ, PLY, OFF or STL), or shape:NAME[:RESOLUTION]");
     command->add_option("--session", options_.session, "Open an editor session (JSON)");
     command->add_option("--fixed", options_.fixed, "Fixed vertices: 0-based indices");
     command->add_option("--handle", options_.handles, "Handle vertices: 0-based indices; repeat for several handles");
     command->add_option("--transform", options_.transforms, "Starting transform of the matching --handle (as for edit)");
     command->add_option("--roi", options_.roi, "Region of interest: 0-based indices");
-    command->add_option("--output", options_.output, "Where Ctrl+S saves the result (OBJ; the session goes beside it)");
+    command->add_option("--output", options_.output, "Where Ctrl+S saves the result (OBJ or PLY; the session goes beside it)");
     command->add_option("--up", options_.up, "Up axis of the mesh: z or y")->capture_default_str();
     command->add_option("--size", options_.size, "Window size WIDTHxHEIGHT")->capture_default_str();
     command->add_option("--samples", options_.samples, "Multisampling (default: 4 on a GPU, 1 on a CPU device)");
@@ -32,9 +32,9 @@ class GuiCommand final : public BatchCommand {
     command->add_option("--recovery-file", options_.recovery_file, "Crash-recovery file (default: $HDEFORM_RECOVERY_FILE or ~/.local/state/hdeform)");
     command->add_option("--restore", options_.restore, "After a crash: ask, yes or no")->capture_default_str();
     command->add_option("--screenshot-dir", options_.screenshot_dir, "Where F12 writes screenshots")->capture_default_str();
-    command->add_option("--transfer-source", options_.transfer.source_rest, "Transfer mode: the source mesh at rest (OBJ)");
-    command->add_option("--transfer-target", options_.transfer.target, "Transfer mode: the target mesh (OBJ)");
-    command->add_option("--source-pose", options_.transfer.poses, "Transfer mode: source poses (OBJ; * and ? match files in a folder)");
+    command->add_option("--transfer-source", options_.transfer.source_rest, "Transfer mode: the source mesh at rest (OBJ, PLY, OFF or STL)");
+    command->add_option("--transfer-target", options_.transfer.target, "Transfer mode: the target mesh (OBJ, PLY, OFF or STL)");
+    command->add_option("--source-pose", options_.transfer.poses, "Transfer mode: source poses (OBJ, PLY, OFF or STL; * and ? match files in a folder)");
     command->add_option("--markers", options_.transfer.markers, "Transfer mode: marker pairs, loaded if the file exists; where Ctrl+S saves them");
     command->add_option("--source-column", options_.transfer.source_column, "Transfer mode: which marker column is the source's, 1 or 2")
         ->capture_default_str();

@@ -321,7 +321,7 @@ Mesh load_session_mesh(const Session& session, const SessionSource* session_sour
       throw InputError(std::string("session mesh ") + error.what());
     }
   }
-  return read_obj(session.mesh);
+  return read_mesh(session.mesh);
 }
 
 Eigen::MatrixXd stage_result(Deformer& deformer, const EditStage& stage) {

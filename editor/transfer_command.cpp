@@ -18,7 +18,7 @@ class TransferCommand final : public BatchCommand {
   CLI::App* add_to(CLI::App& app) override {
     auto* command = app.add_subcommand("transfer", "Copy the poses of a source mesh onto a target mesh from marker pairs");
     arguments_.add_options(*command, true);
-    command->add_option("--source-pose", pose_paths_, "Source poses (OBJ, the source rest mesh's connectivity); one output each")->required();
+    command->add_option("--source-pose", pose_paths_, "Source poses (OBJ, PLY, OFF or STL; the source rest mesh's connectivity); one output each")->required();
     command->add_option("--out-dir", out_dir_, "Where DIR/<pose name>.obj are written (created if missing)")->required();
     command->add_option("--expected", expected_paths_,
                         "Meshes the results should match, one per pose (the target's connectivity): reports the RMS vertex error "
@@ -58,7 +58,7 @@ class TransferCommand final : public BatchCommand {
     progress("reading " + std::to_string(pose_paths_.size()) + " pose(s)");
     std::vector<Eigen::MatrixXd> poses;
     for (const auto& path : pose_paths_) {
-      Mesh pose = read_obj(path);
+      Mesh pose = read_mesh(path);
       if (pose.vertex_count() != loaded.source_rest.vertex_count() || pose.triangles != loaded.source_rest.triangles) {
         throw InputError(path + ": a pose must have the source rest mesh's vertices and triangles (it has " + std::to_string(pose.vertex_count()) +
                          " vertices and " + std::to_string(pose.triangle_count()) + " triangles, the rest mesh " +
@@ -71,7 +71,7 @@ class TransferCommand final : public BatchCommand {
     }
     std::vector<Eigen::MatrixXd> expected;
     for (const auto& path : expected_paths_) {
-      Mesh mesh = read_obj(path);
+      Mesh mesh = read_mesh(path);
       if (mesh.vertex_count() != loaded.target.vertex_count()) {
         throw InputError(path + ": " + std::to_string(mesh.vertex_count()) + " vertices; the target has " + std::to_string(loaded.target.vertex_count()));
       }

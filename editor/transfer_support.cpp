@@ -5,8 +5,8 @@
 namespace hdeform::cli {
 
 void TransferArguments::add_options(CLI::App& command, bool with_method) {
-  command.add_option("--source-rest", source_rest, "Source (reference) mesh at rest (OBJ)")->required();
-  command.add_option("--target", target, "Target mesh (OBJ)")->required();
+  command.add_option("--source-rest", source_rest, "Source (reference) mesh at rest (OBJ, PLY, OFF or STL)")->required();
+  command.add_option("--target", target, "Target mesh (OBJ, PLY, OFF or STL)")->required();
   command.add_option("--markers", markers, "Marker pairs: two 0-based vertex indices per line")->required();
   command.add_option("--source-column", source_column, "Which column of the marker file is the source's: 1 or 2")->capture_default_str();
   if (with_method) command.add_option("--method", method, "correspondence (§6) or interpolation (§7)")->capture_default_str();
@@ -33,9 +33,9 @@ TransferOptions TransferArguments::options(SolverBackend backend) const {
 TransferInputs load_transfer_inputs(const TransferArguments& arguments, const Progress& progress) {
   TransferInputs inputs;
   progress("reading " + arguments.source_rest);
-  inputs.source_rest = read_obj(arguments.source_rest);
+  inputs.source_rest = read_mesh(arguments.source_rest);
   progress("reading " + arguments.target);
-  inputs.target = read_obj(arguments.target);
+  inputs.target = read_mesh(arguments.target);
   inputs.markers = read_marker_pairs(arguments.markers, arguments.source_column == 1 ? SourceColumn::First : SourceColumn::Second,
                                      inputs.source_rest.vertex_count(), inputs.target.vertex_count());
   return inputs;

@@ -100,7 +100,7 @@ inline constexpr std::pair<const char*, const char*> kShortcuts[] = {
     {"0", "reset the handles to rest"},
     {"A", "apply: the result becomes the rest shape"},
     {"Ctrl+Z / Ctrl+Shift+Z", "undo / redo"},
-    {"Ctrl+O", "open a mesh (.obj) or a session (.json)"},
+    {"Ctrl+O", "open a mesh (.obj, .ply, .off, .stl) or a session (.json)"},
     {"Ctrl+S / Ctrl+Shift+S", "save / save as (the mesh, and its session beside it)"},
     {"W / H / K", "wireframe / harmonic field / vertex classes"},
     {"P", "profiler: the last updates, iterations and frames by stage"},
@@ -116,7 +116,7 @@ inline constexpr std::pair<const char*, const char*> kShortcuts[] = {
 
 inline std::string session_path_for(const std::string& obj_path) {
   std::filesystem::path path(obj_path);
-  if (path.extension() == ".obj") path.replace_extension("");
+  if (mesh_format_of(path)) path.replace_extension("");
   return path.string() + ".session.json";
 }
 

@@ -213,7 +213,9 @@ void EditorApp::install(Loaded loaded_document) {
   shown_tag_ = 0;
   if (options_.output.empty() && !names_builtin_shape(mesh_name_)) {
     std::filesystem::path output(mesh_name_);
-    output_path_ = (output.parent_path() / (output.stem().string() + "-edited.obj")).string();
+    // The result keeps the input's format where it is one that is written (PLY), else OBJ.
+    const std::string extension = mesh_format_of(output) == MeshFormat::Ply ? output.extension().string() : ".obj";
+    output_path_ = (output.parent_path() / (output.stem().string() + "-edited" + extension)).string();
   } else if (options_.output.empty()) {
     output_path_ = (std::filesystem::current_path() / (MeshSource::from_name(mesh_name_).shape_name + "-edited.obj")).string();
   } else {
@@ -334,7 +336,7 @@ bool EditorApp::save(const std::string& path) {
   if (!document_ || path.empty()) return false;
   try {
     const Eigen::MatrixXd result = document_->result();
-    write_obj(path, Mesh{result, document_->rest().triangles});
+    write_mesh(path, Mesh{result, document_->rest().triangles});
     write_session(session_path_for(path), document_->session());
     document_->mark_saved();
     status_ = "Saved " + path + " and " + session_path_for(path);

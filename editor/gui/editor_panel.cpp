@@ -53,7 +53,7 @@ void EditorApp::draw_controls() {
   ImGui::TextWrapped("%s", !mesh_name_.empty() ? mesh_name_.c_str()
                                       : load_.running() ? "(loading)"
                                       : restore_offer_ ? "Restore the last session? (the question in the middle)"
-                                                       : "No mesh open: Open... or drop an OBJ file here");
+                                                       : "No mesh open: Open... or drop a mesh file here (OBJ, PLY, OFF, STL)");
   if (document_) ImGui::Text("%ld vertices, %ld triangles", static_cast<long>(document_->vertex_count()), static_cast<long>(document_->rest().triangle_count()));
   if (ImGui::Button("Open...")) request_open();
   ImGui::SameLine();

@@ -30,7 +30,7 @@ void TransferView::draw_panel(bool escape_pressed) {
     }
   }
   if (!sides_[0]) {
-    ImGui::TextWrapped("Or drop OBJ files on the views: the source rest (then its poses) on the left, the target on the right.");
+    ImGui::TextWrapped("Or drop mesh files on the views: the source rest (then its poses) on the left, the target on the right.");
     if (!error_.empty()) wrapped_in_color(ImVec4(1, 0.45f, 0.45f, 1), error_);
     return;
   }

@@ -94,15 +94,15 @@ void TransferView::open(const TransferPaths& inputs) {
     if (inputs.source_rest.empty() || inputs.target.empty()) throw InputError("give the source rest mesh and the target mesh");
     loaded->source_path = inputs.source_rest;
     loaded->target_path = inputs.target;
-    loaded->source_rest = read_obj(inputs.source_rest);
-    loaded->target = read_obj(inputs.target);
+    loaded->source_rest = read_mesh(inputs.source_rest);
+    loaded->target = read_mesh(inputs.target);
     std::vector<std::string> pose_paths;
     for (const auto& pose : inputs.poses) {
       const auto expanded = expand_paths(pose);
       pose_paths.insert(pose_paths.end(), expanded.begin(), expanded.end());
     }
     for (const auto& path : pose_paths) {
-      Mesh pose = read_obj(path);
+      Mesh pose = read_mesh(path);
       if (pose.vertex_count() != loaded->source_rest.vertex_count() || pose.triangles != loaded->source_rest.triangles) {
         throw InputError(path + ": a pose must have the source rest mesh's vertices and triangles");
       }

@@ -7,20 +7,16 @@
 #include "hdeform/atomic_file.h"
 #include "hdeform/errors.h"
 #include "hdeform/trace.h"
+#include "polygons.h"
 #include "text_scan.h"
 
 namespace hdeform {
 namespace {
 
 using detail::fail_at;
+using detail::Polygons;
+using detail::triangulate;
 using detail::quoted;
-
-// The faces as written: their corners' vertex indices, 0-based and resolved.
-struct Polygons {
-  std::vector<int> corners;
-  std::vector<std::size_t> start{0};  // polygon p: corners[start[p] .. start[p + 1])
-  std::size_t count() const { return start.size() - 1; }
-};
 
 // "v", "v/vt", "v//vn" or "v/vt/vn": the vertex part, checked to be a non-zero integer; the
 // other parts are ignored but must be empty or integers.
@@ -43,41 +39,6 @@ long long face_vertex_reference(const std::filesystem::path& path, std::size_t l
   }
   if (*index == 0) fail_at(path, line, "face vertex index 0 (OBJ indices start at 1)");
   return *index;
-}
-
-// Summed in a fixed order, so that a tie between the two diagonals is decided the same everywhere.
-double squared_distance(const Eigen::MatrixXd& positions, int a, int b) {
-  double sum = 0.0;
-  for (int c = 0; c < 3; ++c) {
-    const double d = positions(b, c) - positions(a, c);
-    sum += d * d;
-  }
-  return sum;
-}
-
-// Quads are split along their shorter diagonal (a tie takes 1-3), larger polygons into a fan
-// from their first corner.
-void triangulate(const Polygons& polygons, const Eigen::MatrixXd& positions, Eigen::MatrixXi& triangles) {
-  std::size_t count = 0;
-  for (std::size_t p = 0; p < polygons.count(); ++p) count += polygons.start[p + 1] - polygons.start[p] - 2;
-  triangles.resize(static_cast<Eigen::Index>(count), 3);
-  Eigen::Index t = 0;
-  const auto add = [&](int a, int b, int c) { triangles.row(t++) << a, b, c; };
-  for (std::size_t p = 0; p < polygons.count(); ++p) {
-    const int* corner = polygons.corners.data() + polygons.start[p];
-    const std::size_t size = polygons.start[p + 1] - polygons.start[p];
-    if (size == 4) {
-      if (squared_distance(positions, corner[0], corner[2]) < squared_distance(positions, corner[1], corner[3])) {
-        add(corner[0], corner[1], corner[2]);
-        add(corner[0], corner[2], corner[3]);
-      } else {
-        add(corner[0], corner[1], corner[3]);
-        add(corner[1], corner[2], corner[3]);
-      }
-      continue;
-    }
-    for (std::size_t k = 1; k + 1 < size; ++k) add(corner[0], corner[k], corner[k + 1]);
-  }
 }
 
 void append_number(std::string& out, double value) {

@@ -1,5 +1,6 @@
 #pragma once
 #include <filesystem>
+#include <optional>
 #include <string_view>
 
 #include "hdeform/mesh.h"
@@ -22,5 +23,28 @@ Mesh parse_obj(const std::filesystem::path& path, std::string_view content);
 
 // Writes vertices (shortest round-trip decimal form) and triangles, atomically.
 void write_obj(const std::filesystem::path& path, const Mesh& mesh);
+
+// The formats scans come in, chosen by the file's extension (any case).
+//   .obj  the reader above;
+//   .ply  ASCII or binary (either byte order), "vertex" x y z (float or double) and "face"
+//         vertex_indices lists; other elements and properties are ignored;
+//   .off  (also COFF, NOFF... headers) vertices then faces;
+//   .stl  ASCII or binary. STL stores each triangle's corners, not shared vertices: corners at
+//         exactly the same position become one vertex, numbered in the order they first occur
+//         (triangle 0's three corners first), so index files refer to that order.
+// PLY, OFF and STL are read by OpenMesh into our own arrays: vertices exactly in file order,
+// every face kept as written (non-manifold ones too) and polygons triangulated as in OBJ.
+// Throws InputError "<file>: <problem>" (a face index out of range names the face and corner).
+enum class MeshFormat { Obj, Ply, Off, Stl };
+inline constexpr std::string_view kReadableMeshFormats = ".obj, .ply, .off or .stl";
+std::optional<MeshFormat> mesh_format_of(const std::filesystem::path& path);
+Mesh read_mesh(const std::filesystem::path& path);
+// The same for content already in memory, the format from `path`'s extension.
+Mesh parse_mesh(const std::filesystem::path& path, std::string_view content);
+
+// Binary little-endian PLY with double coordinates (exact), atomically.
+void write_ply(const std::filesystem::path& path, const Mesh& mesh);
+// .obj or .ply by the extension; anything else throws InputError.
+void write_mesh(const std::filesystem::path& path, const Mesh& mesh);
 
 }  // namespace hdeform

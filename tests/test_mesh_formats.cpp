@@ -1,0 +1,268 @@
+// PLY, OFF and STL: each format written here by an independent writer, then read by the library
+// (OpenMesh's readers into hdeform's arrays) and compared with the OBJ reader on the same mesh.
+#include <gtest/gtest.h>
+
+#include <array>
+#include <bit>
+#include <cstdint>
+#include <cstdio>
+#include <cstring>
+#include <limits>
+#include <map>
+
+#include "hdeform/errors.h"
+#include "hdeform/mesh_io.h"
+#include "hdeform/shapes.h"
+#include "test_support.h"
+
+namespace hdeform {
+namespace {
+
+// The cactus with every coordinate rounded to single precision, so that every format (STL and
+// OpenMesh's readers keep floats) holds it exactly.
+Mesh float_exact_cactus() {
+  Mesh mesh = make_shape(ShapeKind::Cactus, 12).mesh;
+  mesh.positions = mesh.positions.cast<float>().cast<double>();
+  return mesh;
+}
+
+std::string decimal(double value) {
+  std::array<char, 40> buffer;
+  std::snprintf(buffer.data(), buffer.size(), "%.9g", value);
+  return buffer.data();
+}
+
+std::string ascii_ply(const Mesh& mesh) {
+  std::string text = "ply\nformat ascii 1.0\ncomment with a property the reader must skip\nelement vertex " +
+                     std::to_string(mesh.vertex_count()) +
+                     "\nproperty float x\nproperty float y\nproperty float z\nproperty uchar quality\nelement face " +
+                     std::to_string(mesh.triangle_count()) + "\nproperty list uchar int vertex_indices\nend_header\n";
+  for (Eigen::Index v = 0; v < mesh.vertex_count(); ++v) {
+    text += decimal(mesh.positions(v, 0)) + " " + decimal(mesh.positions(v, 1)) + " " + decimal(mesh.positions(v, 2)) + " 7\n";
+  }
+  for (Eigen::Index t = 0; t < mesh.triangle_count(); ++t) {
+    text += "3 " + std::to_string(mesh.triangles(t, 0)) + " " + std::to_string(mesh.triangles(t, 1)) + " " + std::to_string(mesh.triangles(t, 2)) + "\n";
+  }
+  return text;
+}
+
+template <class T>
+void put_big_endian(std::string& out, T value) {
+  std::array<char, sizeof(T)> bytes;
+  std::memcpy(bytes.data(), &value, sizeof(T));
+  if constexpr (std::endian::native == std::endian::little) std::reverse(bytes.begin(), bytes.end());
+  out.append(bytes.data(), bytes.size());
+}
+
+template <class T>
+void put_little_endian(std::string& out, T value) {
+  std::array<char, sizeof(T)> bytes;
+  std::memcpy(bytes.data(), &value, sizeof(T));
+  if constexpr (std::endian::native == std::endian::big) std::reverse(bytes.begin(), bytes.end());
+  out.append(bytes.data(), bytes.size());
+}
+
+std::string big_endian_ply(const Mesh& mesh) {
+  std::string out = "ply\nformat binary_big_endian 1.0\nelement vertex " + std::to_string(mesh.vertex_count()) +
+                    "\nproperty float x\nproperty float y\nproperty float z\nelement face " + std::to_string(mesh.triangle_count()) +
+                    "\nproperty list uchar int vertex_indices\nend_header\n";
+  for (Eigen::Index v = 0; v < mesh.vertex_count(); ++v) {
+    for (int c = 0; c < 3; ++c) put_big_endian(out, static_cast<float>(mesh.positions(v, c)));
+  }
+  for (Eigen::Index t = 0; t < mesh.triangle_count(); ++t) {
+    out += '\3';
+    for (int c = 0; c < 3; ++c) put_big_endian(out, static_cast<std::int32_t>(mesh.triangles(t, c)));
+  }
+  return out;
+}
+
+std::string off_text(const Mesh& mesh) {
+  std::string text = "OFF\n# a comment\n" + std::to_string(mesh.vertex_count()) + " " + std::to_string(mesh.triangle_count()) + " 0\n";
+  for (Eigen::Index v = 0; v < mesh.vertex_count(); ++v) {
+    text += decimal(mesh.positions(v, 0)) + " " + decimal(mesh.positions(v, 1)) + " " + decimal(mesh.positions(v, 2)) + "\n";
+  }
+  for (Eigen::Index t = 0; t < mesh.triangle_count(); ++t) {
+    text += "3 " + std::to_string(mesh.triangles(t, 0)) + " " + std::to_string(mesh.triangles(t, 1)) + " " + std::to_string(mesh.triangles(t, 2)) + "\n";
+  }
+  return text;
+}
+
+std::string binary_stl(const Mesh& mesh) {
+  std::string out(80, ' ');
+  put_little_endian(out, static_cast<std::uint32_t>(mesh.triangle_count()));
+  for (Eigen::Index t = 0; t < mesh.triangle_count(); ++t) {
+    for (int c = 0; c < 3; ++c) put_little_endian(out, 0.0f);  // the normal, which readers ignore
+    for (int corner = 0; corner < 3; ++corner) {
+      for (int c = 0; c < 3; ++c) put_little_endian(out, static_cast<float>(mesh.positions(mesh.triangles(t, corner), c)));
+    }
+    put_little_endian(out, std::uint16_t{0});
+  }
+  return out;
+}
+
+std::string ascii_stl(const Mesh& mesh) {
+  std::string text = "solid cactus\n";
+  for (Eigen::Index t = 0; t < mesh.triangle_count(); ++t) {
+    text += "  facet normal 0 0 0\n    outer loop\n";
+    for (int corner = 0; corner < 3; ++corner) {
+      const auto v = mesh.triangles(t, corner);
+      text += "      vertex " + decimal(mesh.positions(v, 0)) + " " + decimal(mesh.positions(v, 1)) + " " + decimal(mesh.positions(v, 2)) + "\n";
+    }
+    text += "    endloop\n  endfacet\n";
+  }
+  return text + "endsolid cactus\n";
+}
+
+// What an STL reader must build: corners at one position are one vertex, numbered by first
+// occurrence, triangle 0's corners first.
+Mesh merged_in_first_occurrence_order(const Mesh& mesh) {
+  std::map<std::array<double, 3>, int> index_of;
+  std::vector<std::array<double, 3>> points;
+  Mesh merged;
+  merged.triangles.resize(mesh.triangle_count(), 3);
+  for (Eigen::Index t = 0; t < mesh.triangle_count(); ++t) {
+    for (int corner = 0; corner < 3; ++corner) {
+      const auto v = mesh.triangles(t, corner);
+      const std::array<double, 3> point{mesh.positions(v, 0), mesh.positions(v, 1), mesh.positions(v, 2)};
+      const auto [it, inserted] = index_of.emplace(point, static_cast<int>(points.size()));
+      if (inserted) points.push_back(point);
+      merged.triangles(t, corner) = it->second;
+    }
+  }
+  merged.positions.resize(static_cast<Eigen::Index>(points.size()), 3);
+  for (std::size_t v = 0; v < points.size(); ++v) {
+    for (int c = 0; c < 3; ++c) merged.positions(static_cast<Eigen::Index>(v), c) = points[v][static_cast<std::size_t>(c)];
+  }
+  return merged;
+}
+
+void expect_same_mesh(const Mesh& actual, const Mesh& expected) {
+  ASSERT_EQ(actual.vertex_count(), expected.vertex_count());
+  ASSERT_EQ(actual.triangle_count(), expected.triangle_count());
+  EXPECT_EQ(actual.positions, expected.positions);
+  EXPECT_EQ(actual.triangles, expected.triangles);
+}
+
+TEST(MeshFormats, PlyAndOffAgreeWithTheObjReaderVertexForVertex) {
+  const test::TempDir dir;
+  const Mesh mesh = float_exact_cactus();
+  write_obj(dir.file("cactus.obj"), mesh);
+  const Mesh from_obj = read_mesh(dir.file("cactus.obj"));
+  expect_same_mesh(from_obj, mesh);
+  dir.write("ascii.ply", ascii_ply(mesh));
+  dir.write("big-endian.PLY", big_endian_ply(mesh));
+  dir.write("cactus.off", off_text(mesh));
+  for (const char* name : {"ascii.ply", "big-endian.PLY", "cactus.off"}) {
+    SCOPED_TRACE(name);
+    expect_same_mesh(read_mesh(dir.file(name)), from_obj);
+  }
+}
+
+TEST(MeshFormats, StlCornersBecomeVerticesInTheOrderTheyFirstOccur) {
+  const test::TempDir dir;
+  const Mesh mesh = float_exact_cactus();
+  const Mesh expected = merged_in_first_occurrence_order(mesh);
+  ASSERT_EQ(expected.vertex_count(), mesh.vertex_count());  // the cactus has no two vertices at one place
+  dir.write("binary.stl", binary_stl(mesh));
+  dir.write("ascii.stl", ascii_stl(mesh));
+  for (const char* name : {"binary.stl", "ascii.stl"}) {
+    SCOPED_TRACE(name);
+    const Mesh read = read_mesh(dir.file(name));
+    expect_same_mesh(read, expected);
+    // The same surface: every triangle's corners where the original's were.
+    for (Eigen::Index t = 0; t < mesh.triangle_count(); ++t) {
+      for (int corner = 0; corner < 3; ++corner) {
+        ASSERT_EQ(read.positions.row(read.triangles(t, corner)), mesh.positions.row(mesh.triangles(t, corner)));
+      }
+    }
+  }
+}
+
+TEST(MeshFormats, WrittenPlyReadsBackWithItsOrderAndSinglePrecisionCoordinates) {
+  const test::TempDir dir;
+  const Mesh mesh = make_shape(ShapeKind::Bar, 12).mesh;
+  write_mesh(dir.file("bar.ply"), mesh);
+  const Mesh back = read_mesh(dir.file("bar.ply"));
+  EXPECT_EQ(back.triangles, mesh.triangles);
+  // OpenMesh's readers hold coordinates as floats: what comes back is the float nearest each.
+  EXPECT_EQ(back.positions, mesh.positions.cast<float>().cast<double>());
+  write_mesh(dir.file("bar.obj"), mesh);
+  EXPECT_EQ(read_mesh(dir.file("bar.obj")).positions, mesh.positions);
+  EXPECT_THROW(write_mesh(dir.file("bar.stl"), mesh), InputError);
+  EXPECT_FALSE(std::filesystem::exists(dir.file("bar.stl")));
+}
+
+TEST(MeshFormats, PolygonsAreTriangulatedAsInObjAndNonManifoldFacesKept) {
+  const test::TempDir dir;
+  // A quad, a pentagon, and three triangles on the edge 0-1 (non-manifold); vertex 7 unreferenced.
+  const std::string points = "0 0 0\n1 0 0\n1 1 0\n0 1.25 0\n2 0 0\n2 1 0\n0.5 0.5 1\n9 9 9\n";
+  dir.write("faces.off", "OFF\n8 5 0\n" + points + "4 0 1 2 3\n5 1 4 5 2 6\n3 0 1 6\n3 1 0 5\n3 0 1 4\n");
+  dir.write("faces.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1.25 0\nv 2 0 0\nv 2 1 0\nv 0.5 0.5 1\nv 9 9 9\n"
+                         "f 1 2 3 4\nf 2 5 6 3 7\nf 1 2 7\nf 2 1 6\nf 1 2 5\n");
+  const Mesh from_off = read_mesh(dir.file("faces.off"));
+  EXPECT_EQ(from_off.vertex_count(), 8);
+  EXPECT_EQ(from_off.triangle_count(), 2 + 3 + 3);
+  expect_same_mesh(from_off, read_mesh(dir.file("faces.obj")));
+}
+
+// Expects read_mesh to throw InputError starting with the file's path (and perhaps a line) and containing `fragment`.
+void expect_refused(const test::TempDir& dir, const std::string& name, const std::string& content, const std::string& fragment) {
+  SCOPED_TRACE(name);
+  dir.write(name, content);
+  try {
+    read_mesh(dir.file(name));
+    ADD_FAILURE() << "no error for " << name;
+  } catch (const InputError& error) {
+    const std::string message = error.what();
+    EXPECT_TRUE(message.starts_with(dir.file(name).string() + ":")) << message;
+    EXPECT_NE(message.find(fragment), std::string::npos) << "'" << fragment << "' not in: " << message;
+  }
+}
+
+TEST(MeshFormats, MalformedFilesNameTheFileAndTheProblem) {
+  const test::TempDir dir;
+  const std::string header = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+                             "element face 1\nproperty list uchar int vertex_indices\nend_header\n";
+  expect_refused(dir, "index.ply", header + "0 0 0\n1 0 0\n0 1 0\n3 0 1 5\n", "face 0 corner 2 has vertex index 5, out of range (3 vertices)");
+  expect_refused(dir, "negative.ply", header + "0 0 0\n1 0 0\n0 1 0\n3 0 -1 2\n", "face 0 corner 1 has vertex index -1");
+  expect_refused(dir, "two.ply", header + "0 0 0\n1 0 0\n0 1 0\n2 0 1\n", "face 0 has 2 vertices (at least 3 are needed)");
+  Mesh with_nan = make_shape(ShapeKind::Bar, 8).mesh;
+  with_nan.positions(1, 0) = std::numeric_limits<double>::quiet_NaN();
+  expect_refused(dir, "nan.ply", big_endian_ply(with_nan), "vertex 1 has a non-finite coordinate");
+  expect_refused(dir, "header.ply", "ply\nformat ascii 1.0\nelement vertex three\n", ":3: element 'vertex' has count 'three', not a count");
+  expect_refused(dir, "format.ply", "ply\nformat text 1.0\nend_header\n", ":2: unknown PLY format");
+  expect_refused(dir, "noz.ply", "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\nelement face 1\n"
+                 "property list uchar int vertex_indices\nend_header\n0 0\n3 0 0 0\n", ":3: the vertex element has no property z");
+  expect_refused(dir, "not.ply", "solid no\n", ":1: not a PLY file");
+  std::string truncated = "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+                          "element face 1\nproperty list uchar int vertex_indices\nend_header\n";
+  truncated += std::string(20, '\0');
+  expect_refused(dir, "truncated.ply", truncated, ":9: the header declares more than the file holds");
+  expect_refused(dir, "huge.ply", header.substr(0, header.find("element vertex 3")) + "element vertex 2000000000\n" +
+                 header.substr(header.find("property float x")) + "0 0 0\n", "the header declares more than the file holds");
+  expect_refused(dir, "body.ply", header + "0 0 0\n1 0 0\n0 1 0\n3 0 1\n", "the file ends before");
+  expect_refused(dir, "empty.ply", "", "an empty file");
+  expect_refused(dir, "index.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n", "face 0 corner 2 has vertex index 3, out of range");
+  expect_refused(dir, "faceless.off", "OFF\n3 0 0\n0 0 0\n1 0 0\n0 1 0\n", ":2: the OFF file has no faces");
+  expect_refused(dir, "header.off", "OFX\n3 1 0\n", ":1: not an OFF file");
+  expect_refused(dir, "counts.off", "OFF\n# counts next\n3 one 0\n", ":3: 'one' is not a count");
+  expect_refused(dir, "huge.off", "OFF\n900000000 1 0\n0 0 0\n", ":2: the header declares more than the file holds");
+  expect_refused(dir, "binary.off", "OFF BINARY\n\1\2\3", "binary");
+  expect_refused(dir, "garbage.stl", "\x01\x02 not an STL", "neither ASCII STL");
+  expect_refused(dir, "empty.stl", "", "neither ASCII STL");
+  expect_refused(dir, "points.xyz", "0 0 0\n", "unknown mesh format '.xyz' (.obj, .ply, .off or .stl)");
+}
+
+TEST(MeshFormats, TheBenchmarkMeshesReadAlikeInEveryFormat) {
+  HDEFORM_REQUIRE_SHARED_MESHES();
+  const test::TempDir dir;
+  Mesh mesh = read_mesh(test::shared_meshes() / "deformation-benchmark" / "cactus.obj");
+  mesh.positions = mesh.positions.cast<float>().cast<double>();
+  dir.write("cactus.off", off_text(mesh));
+  dir.write("cactus.ply", big_endian_ply(mesh));
+  expect_same_mesh(read_mesh(dir.file("cactus.off")), mesh);
+  expect_same_mesh(read_mesh(dir.file("cactus.ply")), mesh);
+}
+
+}  // namespace
+}  // namespace hdeform
