@@ -30,6 +30,9 @@ class EditCommand final : public BatchCommand {
     command->add_option("--transform", transform_paths_,
                         "Transform of the matching --handle: 12 numbers [A|t] row-major, or 'twist AX AY AZ PX PY PZ DEG [S]'");
     command->add_option("--roi", roi_path_, "Region of interest: 0-based indices (default: the whole mesh)");
+    command->add_option("--sel", sel_path_,
+                        "Botsch-Sorkine labels instead of --fixed/--handle: one per vertex, 0 fixed, 1 deformable, 2 handle (NAME.sel)");
+    command->add_option("--def", def_path_, "With --sel: the handle's transform (NAME.def, a 4x4 matrix; anything --transform takes)");
     command->add_option("--out", out_path_, "Output mesh (.obj or .ply)")->required();
     command->add_option("--steps", steps_, "Simulate a drag: go from the identity to the transform in this many updates")
         ->capture_default_str();
@@ -54,12 +57,18 @@ class EditCommand final : public BatchCommand {
     } else {
       source_.require();
     }
+    if (!sel_path_.empty() || !def_path_.empty()) {
+      if (sel_path_.empty() || def_path_.empty()) throw UsageError("--sel and --def go together: the labels and the handle's transform");
+      if (!fixed_path_.empty() || !handle_paths_.empty() || !transform_paths_.empty() || !session_path_.empty()) {
+        throw UsageError("--sel and --def replace --fixed, --handle, --transform and --session");
+      }
+    }
     if (handle_paths_.size() != transform_paths_.size()) {
       throw UsageError("give one --transform per --handle (" + std::to_string(handle_paths_.size()) + " handles, " +
                        std::to_string(transform_paths_.size()) + " transforms)");
     }
     if (steps_ < 1) throw UsageError("--steps must be at least 1");
-    std::vector<std::string> inputs{source_.mesh_path, fixed_path_, roi_path_, session_path_};
+    std::vector<std::string> inputs{source_.mesh_path, fixed_path_, roi_path_, session_path_, sel_path_, def_path_};
     inputs.insert(inputs.end(), handle_paths_.begin(), handle_paths_.end());
     inputs.insert(inputs.end(), transform_paths_.begin(), transform_paths_.end());
     refuse_overwriting_inputs(out_path_, inputs);
@@ -112,6 +121,11 @@ class EditCommand final : public BatchCommand {
     const auto vertex_count = loaded.mesh.vertex_count();
     if (!session_path_.empty()) {
       // constraints and transforms came from the session
+    } else if (!sel_path_.empty()) {
+      auto labels = read_vertex_labels(sel_path_, vertex_count);
+      constraints.fixed = std::move(labels.fixed);
+      constraints.handles = {std::move(labels.handle)};
+      transforms = {read_handle_transform(def_path_)};
     } else if (!handle_paths_.empty()) {
       for (std::size_t h = 0; h < handle_paths_.size(); ++h) {
         constraints.handles.push_back(read_vertex_list(handle_paths_[h], vertex_count, "a handle needs at least one vertex"));
@@ -239,6 +253,8 @@ class EditCommand final : public BatchCommand {
   std::string fixed_path_;
   std::string roi_path_;
   std::string out_path_;
+  std::string sel_path_;
+  std::string def_path_;
   std::vector<std::string> handle_paths_;
   std::vector<std::string> transform_paths_;
   int steps_ = 1;

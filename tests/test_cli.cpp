@@ -125,6 +125,41 @@ TEST_F(Cli, NeverOverwritesItsInput) {
   EXPECT_EQ(std::filesystem::last_write_time(path("in.obj")), before);
 }
 
+std::string file_bytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+// The benchmark as published (labels and a 4×4 matrix, as CGAL's demo reads them) gives exactly
+// the result of the converted index files.
+TEST_F(Cli, SelAndDefFilesGiveTheIndexFilesResult) {
+  HDEFORM_REQUIRE_SHARED_MESHES();
+  const auto folder = test::shared_meshes() / "deformation-benchmark";
+  for (const std::string name : {"bar", "cactus", "cylinder", "plane"}) {
+    SCOPED_TRACE(name);
+    const std::string base = (folder / name).string();
+    const auto labels = run(dir, "edit --mesh " + base + ".obj --sel " + base + ".sel --def " + base + ".def --out " + path(name + "-sel.obj") + " --quiet");
+    ASSERT_EQ(labels.exit_code, 0) << labels.err;
+    const auto indices = run(dir, "edit --mesh " + base + ".obj --fixed " + base + "-fixed.txt --handle " + base + "-handle.txt --transform " + base +
+                                      "-transform.txt --out " + path(name + "-indices.obj") + " --quiet");
+    ASSERT_EQ(indices.exit_code, 0) << indices.err;
+    EXPECT_EQ(file_bytes(path(name + "-sel.obj")), file_bytes(path(name + "-indices.obj")));
+    const auto report = nlohmann::json::parse(labels.out);
+    EXPECT_GT(report["free"].get<int>(), 0);
+  }
+}
+
+TEST_F(Cli, SelAndDefAreRefusedWithTheOtherConstraintOptions) {
+  dir.write("labels.sel", "2\n");
+  dir.write("move.def", "1 0 0 0\n0 1 0 0\n0 0 1 0\n0 0 0 1\n");
+  for (const std::string& extra : {"--def " + path("move.def") + " --fixed " + path("labels.sel"), std::string()}) {
+    const auto result = run(dir, "edit --shape cactus --sel " + path("labels.sel") + " " + extra + " --out " + path("out.obj"));
+    EXPECT_EQ(result.exit_code, 2) << result.err;
+    EXPECT_TRUE(contains(result.err, "--sel")) << result.err;
+  }
+  EXPECT_FALSE(std::filesystem::exists(path("out.obj")));
+}
+
 TEST_F(Cli, FieldWritesOneValuePerVertex) {
   ASSERT_EQ(run(dir, "edit --shape cylinder --out " + path("c.obj") + " --quiet").exit_code, 0);
   const Mesh mesh = read_obj(path("c.obj"));

@@ -43,7 +43,7 @@ struct Place {
 };
 const std::map<std::string, std::vector<Place>>& places() {
   static const std::map<std::string, std::vector<Place>> table = {
-      {"obj",
+      {"mesh",
        {{"edit --mesh BAD --fixed fixed.txt --handle handle.txt --transform move.txt --out out.obj", "good.obj"},
         {"field --mesh BAD --sources handle.txt --sinks fixed.txt --out out.txt", "good.obj"},
         {"bench --mesh BAD --fixed fixed.txt --handle handle.txt --transform move.txt --steps 3 --out out.json --quiet", "good.obj"},
@@ -76,6 +76,7 @@ const std::map<std::string, std::vector<Place>>& places() {
        {{"transfer --source-rest good.obj --target good.obj --markers BAD --source-pose good.obj --out-dir out", "markers.txt"},
         {"correspondence --source-rest good.obj --target good.obj --markers BAD --out out.txt", "markers.txt"}}},
       {"session", {{"edit --session BAD --out out.obj", "session.json"}}},
+      {"sel", {{"edit --mesh good.obj --sel BAD --def move.txt --out out.obj", "labels.sel"}}},
 #if HDEFORM_HAS_RENDER
       {"values", {{"render --mesh good.obj --field BAD --out out.png", "values.txt"}}},
 #else
@@ -86,7 +87,7 @@ const std::map<std::string, std::vector<Place>>& places() {
 }
 
 std::string kind_of(const std::string& name) {
-  if (name.ends_with(".obj")) return "obj";
+  if (mesh_format_of(name)) return "mesh";
   return name.substr(0, name.find('-'));
 }
 
@@ -109,6 +110,12 @@ class Corpus : public ::testing::Test {
     dir.write("fixed.txt", fixed);
     dir.write("handle.txt", handle);
     dir.write("move.txt", "1 0 0 0.05\n0 1 0 0\n0 0 1 0.02\n");
+    std::vector<char> labels(static_cast<std::size_t>(shape.mesh.vertex_count()), '1');
+    for (const int v : shape.demo_constraints.fixed) labels[static_cast<std::size_t>(v)] = '0';
+    for (const int v : shape.demo_constraints.handles[0]) labels[static_cast<std::size_t>(v)] = '2';
+    std::string label_lines;
+    for (const char label : labels) label_lines += std::string(1, label) + "\n";
+    dir.write("labels.sel", label_lines);
     dir.write("markers.txt", "0 0\n40 40\n120 120\n200 200\n300 300\n");
     std::string roi;
     for (Eigen::Index v = 0; v < shape.mesh.vertex_count(); ++v) roi += std::to_string(v) + "\n";
@@ -203,7 +210,7 @@ TEST_F(Corpus, FuzzFoundMeshesGetACleanOutcomeFromEveryCommand) {
   dir.write("tiny-handle.txt", "3\n");
   dir.write("tiny-markers.txt", "1 1\n2 2\n3 3\n");
   std::vector<std::string> lines;
-  for (const auto& place : places().at("obj")) lines.emplace_back(place.command);
+  for (const auto& place : places().at("mesh")) lines.emplace_back(place.command);
   for (const std::string tiny : {"edit --mesh BAD --fixed tiny-fixed.txt --handle tiny-handle.txt --transform move.txt --out out.obj",
                                  "field --mesh BAD --sources tiny-handle.txt --sinks tiny-fixed.txt --out out.txt",
                                  "transfer --source-rest BAD --target BAD --markers tiny-markers.txt --source-pose BAD --out-dir out",

@@ -39,6 +39,35 @@ std::vector<int> read_vertex_indices(const std::filesystem::path& path, Eigen::I
   return indices;
 }
 
+VertexLabels read_vertex_labels(const std::filesystem::path& path, Eigen::Index vertex_count) {
+  const std::string content = detail::read_text_file(path);
+  detail::reject_binary(path, content);
+  VertexLabels labels;
+  std::size_t count = 0;
+  std::size_t last_line = 0;
+  std::vector<std::string_view> tokens;
+  detail::for_each_line(content, [&](std::size_t line, std::string_view text) {
+    detail::split_tokens(text, tokens);
+    for (const auto token : tokens) {
+      if (static_cast<Eigen::Index>(count) == vertex_count) {
+        fail_at(path, line, "more labels than the mesh's " + std::to_string(vertex_count) + " vertices");
+      }
+      const auto value = detail::parse_integer(token);
+      if (!value || *value < 0 || *value > 2) fail_at(path, line, "label " + quoted(token) + " (0 fixed, 1 deformable, 2 handle)");
+      const int vertex = static_cast<int>(count++);
+      (*value == 0 ? labels.fixed : *value == 1 ? labels.deformable : labels.handle).push_back(vertex);
+      last_line = line;
+    }
+  });
+  if (count == 0) throw InputError(path.string() + ": no labels (one per vertex: 0 fixed, 1 deformable, 2 handle)");
+  if (static_cast<Eigen::Index>(count) < vertex_count) {
+    fail_at(path, last_line, "the labels end after " + std::to_string(count) + " of the mesh's " + std::to_string(vertex_count) + " vertices");
+  }
+  if (labels.handle.empty()) throw InputError(path.string() + ": no vertex is labelled 2 (the handle)");
+  if (labels.fixed.empty()) throw InputError(path.string() + ": no vertex is labelled 0 (fixed): the handle's field needs sinks");
+  return labels;
+}
+
 HandleTransform read_handle_transform(const std::filesystem::path& path) {
   const std::string content = detail::read_text_file(path);
   detail::reject_binary(path, content);

@@ -12,6 +12,17 @@ namespace hdeform {
 // negative or out-of-range indices and repeated vertices. An empty list is returned as such.
 std::vector<int> read_vertex_indices(const std::filesystem::path& path, Eigen::Index vertex_count);
 
+// A Botsch–Sorkine selection file (NAME.sel, as CGAL's deformation demo reads it): one label per
+// vertex in mesh order, 0 fixed, 1 deformable, 2 handle; '#' starts a comment. Rejects other
+// labels and a count that is not the mesh's vertex count, and a file without fixed or handle
+// vertices. Its companion NAME.def is a 4×4 transform: read_handle_transform reads it.
+struct VertexLabels {
+  std::vector<int> fixed;       // label 0
+  std::vector<int> deformable;  // label 1
+  std::vector<int> handle;      // label 2
+};
+VertexLabels read_vertex_labels(const std::filesystem::path& path, Eigen::Index vertex_count);
+
 // A handle transform, one of
 //   12 numbers: the 3×4 matrix [A | t], row-major (a 4×4 homogeneous matrix with last row
 //               0 0 0 1 is accepted too);
