@@ -1,0 +1,511 @@
+// hdeform._core: the solver (and, when built, the renderer) for Python. numpy arrays in and out:
+// positions n×3 float64, triangles m×3 int32 (any integer type accepted), index lists 1-D. Results
+// are handed to numpy without a copy (column-major arrays that own the solver's matrices). The
+// GIL is released while anything is solved. InputError and SolveError keep the command line's
+// messages, as hdeform.InputError (a ValueError) and hdeform.SolveError (a RuntimeError).
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+#include <pybind11/stl/filesystem.h>
+
+#include <cmath>
+#include <limits>
+#include <memory>
+#include <string>
+#include <variant>
+#include <vector>
+
+#include "hdeform/constraints.h"
+#include "hdeform/deformer.h"
+#include "hdeform/dirichlet_system.h"
+#include "hdeform/errors.h"
+#include "hdeform/handle_transform.h"
+#include "hdeform/harmonic_field.h"
+#include "hdeform/laplacian.h"
+#include "hdeform/mesh_io.h"
+#include "hdeform/shapes.h"
+#include "hdeform/transfer.h"
+#include "cli_support.h"
+#ifdef HDEFORM_WITH_ENGINE
+#include "render_support.h"
+#endif
+
+namespace py = pybind11;
+
+namespace hdeform::python {
+namespace {
+
+std::string type_name(const py::handle& object) { return py::str(py::type::of(object).attr("__name__")).cast<std::string>(); }
+
+std::string describe_array(const py::array& array) {
+  std::string shape = "(";
+  for (py::ssize_t d = 0; d < array.ndim(); ++d) shape += (d ? ", " : "") + std::to_string(array.shape(d));
+  if (array.ndim() == 1) shape += ",";
+  return py::str(array.dtype()).cast<std::string>() + " of shape " + shape + ")";
+}
+
+py::array as_array(const py::handle& object, const std::string& name, const std::string& expected) {
+  try {
+    return py::module_::import("numpy").attr("asarray")(object).cast<py::array>();
+  } catch (const py::error_already_set&) {
+    throw py::value_error(name + " must be " + expected + "; got a " + type_name(object));
+  }
+}
+
+// n×3 floating point (float64, or float32 widened).
+Eigen::MatrixXd positions_argument(const py::handle& object, const std::string& name) {
+  const std::string expected = "a float64 array of shape (n, 3)";
+  const py::array array = as_array(object, name, expected);
+  if (array.dtype().kind() != 'f' || array.ndim() != 2 || array.shape(1) != 3) {
+    throw py::value_error(name + " must be " + expected + "; got " + describe_array(array));
+  }
+  const auto values = array.cast<py::array_t<double, py::array::forcecast>>();
+  const auto view = values.unchecked<2>();
+  Eigen::MatrixXd positions(view.shape(0), 3);
+  for (py::ssize_t i = 0; i < view.shape(0); ++i) {
+    for (py::ssize_t c = 0; c < 3; ++c) positions(i, c) = view(i, c);
+  }
+  return positions;
+}
+
+// Integers that fit an int, of shape (rows, columns) or, with columns = 0, 1-D.
+Eigen::MatrixXi integer_argument(const py::handle& object, const std::string& name, py::ssize_t columns, const std::string& expected) {
+  const py::array array = as_array(object, name, expected);
+  const bool shape_ok = columns == 0 ? array.ndim() == 1 : (array.ndim() == 2 && array.shape(1) == columns);
+  const bool empty_list = columns == 0 && array.ndim() == 1 && array.shape(0) == 0;
+  if ((!empty_list && array.dtype().kind() != 'i' && array.dtype().kind() != 'u') || !shape_ok) {
+    throw py::value_error(name + " must be " + expected + "; got " + describe_array(array));
+  }
+  const auto values = array.cast<py::array_t<long long, py::array::c_style | py::array::forcecast>>();  // row-major: read below in order
+  const py::ssize_t rows = values.shape(0);
+  const py::ssize_t width = columns == 0 ? 1 : columns;
+  Eigen::MatrixXi result(rows, width);
+  const long long* data = values.data();
+  for (py::ssize_t i = 0; i < rows * width; ++i) {
+    if (data[i] < std::numeric_limits<int>::min() || data[i] > std::numeric_limits<int>::max()) {
+      throw py::value_error(name + ": index " + std::to_string(data[i]) + " does not fit a 32-bit int");
+    }
+  }
+  for (py::ssize_t i = 0; i < rows; ++i) {
+    for (py::ssize_t c = 0; c < width; ++c) result(i, c) = static_cast<int>(data[i * width + c]);
+  }
+  return result;
+}
+
+Eigen::MatrixXi triangles_argument(const py::handle& object, const std::string& name) {
+  return integer_argument(object, name, 3, "an integer array of shape (m, 3)");
+}
+
+std::vector<int> indices_argument(const py::handle& object, const std::string& name) {
+  const Eigen::MatrixXi column = integer_argument(object, name, 0, "a 1-D array (or list) of vertex indices");
+  return {column.data(), column.data() + column.size()};
+}
+
+Mesh mesh_argument(const py::handle& positions, const py::handle& triangles, const std::string& name) {
+  Mesh mesh{positions_argument(positions, name + " positions"), triangles_argument(triangles, name + " triangles")};
+  validate_mesh(mesh, name);
+  return mesh;
+}
+
+// numpy views owning the matrices: no copy.
+template <class Matrix>
+py::array owning_array(Matrix&& matrix) {
+  using Scalar = typename std::decay_t<Matrix>::Scalar;
+  auto* owned = new std::decay_t<Matrix>(std::forward<Matrix>(matrix));
+  const py::capsule release(owned, [](void* pointer) { delete static_cast<std::decay_t<Matrix>*>(pointer); });
+  const auto rows = static_cast<py::ssize_t>(owned->rows());
+  if constexpr (std::decay_t<Matrix>::ColsAtCompileTime == 1) {
+    return py::array_t<Scalar>({rows}, {static_cast<py::ssize_t>(sizeof(Scalar))}, owned->data(), release);
+  } else {
+    const auto cols = static_cast<py::ssize_t>(owned->cols());
+    return py::array_t<Scalar>({rows, cols}, {static_cast<py::ssize_t>(sizeof(Scalar)), static_cast<py::ssize_t>(sizeof(Scalar)) * rows},
+                               owned->data(), release);
+  }
+}
+
+py::array index_array(const std::vector<int>& indices) {
+  Eigen::VectorXi column = Eigen::Map<const Eigen::VectorXi>(indices.data(), static_cast<Eigen::Index>(indices.size()));
+  return owning_array(std::move(column));
+}
+
+SolverBackend backend_argument(const std::string& name) {
+  const auto backend = parse_backend(name);
+  if (!backend) throw py::value_error("backend must be 'eigen' or 'cholmod'; got '" + name + "'");
+  if (!backend_available(*backend)) throw py::value_error("this build has no " + name + " backend");
+  return *backend;
+}
+
+// A 3×4 or 4×4 matrix (its last row 0 0 0 1), or a Transform.
+HandleTransform transform_argument(const py::handle& object, const std::string& name) {
+  if (py::isinstance<HandleTransform>(object)) return object.cast<HandleTransform>();
+  const std::string expected = "a Transform or a float array of shape (3, 4) or (4, 4)";
+  const py::array array = as_array(object, name, expected);
+  if ((array.dtype().kind() != 'f' && array.dtype().kind() != 'i') || array.ndim() != 2 || array.shape(1) != 4 ||
+      (array.shape(0) != 3 && array.shape(0) != 4)) {
+    throw py::value_error(name + " must be " + expected + "; got " + describe_array(array));
+  }
+  const auto values = array.cast<py::array_t<double, py::array::forcecast>>().unchecked<2>();
+  if (values.shape(0) == 4 && (values(3, 0) != 0.0 || values(3, 1) != 0.0 || values(3, 2) != 0.0 || values(3, 3) != 1.0)) {
+    throw InputError(name + ": a 4×4 transform must end with the row 0 0 0 1 (it is not affine)");
+  }
+  Eigen::Matrix<double, 3, 4> affine;
+  for (int r = 0; r < 3; ++r) {
+    for (int c = 0; c < 4; ++c) affine(r, c) = values(r, c);
+  }
+  try {
+    return HandleTransform::from_affine(affine);
+  } catch (const InputError& error) {
+    throw InputError(name + ": " + error.what());
+  }
+}
+
+std::vector<HandleTransform> transforms_argument(const py::handle& object, std::size_t handles) {
+  std::vector<HandleTransform> transforms;
+  const bool one = py::isinstance<HandleTransform>(object) ||
+                   (py::isinstance<py::array>(object) && py::reinterpret_borrow<py::array>(object).ndim() == 2);
+  if (one) {
+    transforms.push_back(transform_argument(object, "transform"));
+  } else {
+    if (!py::isinstance<py::sequence>(object)) throw py::value_error("transforms must be a list with one transform per handle");
+    std::size_t k = 0;
+    for (const auto item : object.cast<py::sequence>()) transforms.push_back(transform_argument(item, "transforms[" + std::to_string(k++) + "]"));
+  }
+  if (transforms.size() != handles) {
+    throw py::value_error(std::to_string(transforms.size()) + " transform(s) for " + std::to_string(handles) + " handle(s)");
+  }
+  return transforms;
+}
+
+// "auto" (until converged), or a number of iterations (0: the paper's method alone).
+int refine_argument(const py::object& refine, const RefinementOptions& options) {
+  if (py::isinstance<py::str>(refine)) {
+    if (refine.cast<std::string>() != "auto") throw py::value_error("refine must be a number of iterations or 'auto'");
+    return options.max_iterations;
+  }
+  if (!py::isinstance<py::int_>(refine) || refine.cast<long long>() < 0 || refine.cast<long long>() > 100000) {
+    throw py::value_error("refine must be a number of iterations (0 to 100000) or 'auto'");
+  }
+  return refine.cast<int>();
+}
+
+// A Deformer with its refinement setting and the buffer it writes.
+class PyDeformer {
+ public:
+  PyDeformer(const py::object& positions, const py::object& triangles, const py::object& fixed, const py::object& handles,
+             const py::object& roi, const std::string& backend, const py::object& refine, double refine_tolerance, bool acceleration) {
+    Mesh mesh = mesh_argument(positions, triangles, "mesh");
+    EditConstraints constraints;
+    constraints.fixed = indices_argument(fixed, "fixed");
+    if (!py::isinstance<py::sequence>(handles) || py::isinstance<py::str>(handles)) {
+      throw py::value_error("handles must be a list of vertex index lists, one per handle");
+    }
+    std::size_t h = 0;
+    for (const auto handle : handles.cast<py::sequence>()) constraints.handles.push_back(indices_argument(handle, "handles[" + std::to_string(h++) + "]"));
+    if (!roi.is_none()) constraints.region_of_interest = indices_argument(roi, "roi");
+    DeformerOptions options = DeformerOptions::solver(backend_argument(backend));
+    options.refinement.tolerance = refine_tolerance;
+    options.refinement.accelerate = acceleration;
+    refine_iterations_ = refine_argument(refine, options.refinement);
+    options.prepare_refinement = refine_iterations_ > 0;
+    const py::gil_scoped_release unlocked;
+    deformer_ = std::make_unique<Deformer>(std::move(mesh), std::move(constraints), options);
+  }
+
+  py::array deform(const py::object& transforms_object) {
+    const auto transforms = transforms_argument(transforms_object, deformer_->handle_count());
+    Eigen::MatrixXd positions;
+    {
+      const py::gil_scoped_release unlocked;
+      deformer_->deform(transforms, positions);
+      if (refine_iterations_ > 0) deformer_->refine(positions, refine_iterations_);
+    }
+    return owning_array(std::move(positions));
+  }
+
+  py::array field() const { return owning_array(Eigen::VectorXd(deformer_->field())); }
+  std::vector<std::string> warnings() const { return deformer_->warnings(); }
+  py::dict refinement() const {
+    const auto& status = deformer_->refinement_status();
+    py::dict result;
+    result["iterations"] = status.iterations;
+    result["energy"] = status.energy;
+    result["unrefined_energy"] = status.unrefined_energy;
+    result["converged"] = status.converged;
+    return result;
+  }
+  py::dict timings() const {
+    py::dict result;
+    result["laplacian_ms"] = deformer_->timings().laplacian_ms;
+    result["factor_ms"] = deformer_->timings().factor_ms;
+    result["field_ms"] = deformer_->timings().field_ms;
+    result["last_update_ms"] = deformer_->last_update().total_ms;
+    return result;
+  }
+  Eigen::Index vertex_count() const { return deformer_->rest().vertex_count(); }
+  std::size_t handle_count() const { return deformer_->handle_count(); }
+
+ private:
+  std::unique_ptr<Deformer> deformer_;
+  int refine_iterations_ = 0;
+};
+
+py::tuple read_mesh_binding(const std::filesystem::path& path) {
+  Mesh mesh;
+  {
+    const py::gil_scoped_release unlocked;
+    mesh = read_mesh(path);
+  }
+  return py::make_tuple(owning_array(std::move(mesh.positions)), owning_array(std::move(mesh.triangles)));
+}
+
+void write_mesh_binding(const std::filesystem::path& path, const py::object& positions, const py::object& triangles) {
+  const Mesh mesh = mesh_argument(positions, triangles, path.string());
+  const py::gil_scoped_release unlocked;
+  write_mesh(path, mesh);
+}
+
+py::dict shape_binding(const std::string& name, int resolution) {
+  const auto kind = parse_shape(name);
+  if (!kind) throw py::value_error("unknown shape '" + name + "' (cactus, bar, cylinder, sphere)");
+  if (resolution < 8) throw py::value_error("resolution must be at least 8");
+  Shape shape = make_shape(*kind, resolution);
+  py::dict result;
+  result["V"] = owning_array(std::move(shape.mesh.positions));
+  result["F"] = owning_array(std::move(shape.mesh.triangles));
+  result["fixed"] = index_array(shape.demo_constraints.fixed);
+  py::list handles;
+  for (const auto& handle : shape.demo_constraints.handles) handles.append(index_array(handle));
+  result["handles"] = handles;
+  result["transform"] = shape.demo_transform;
+  return result;
+}
+
+py::tuple laplacian_binding(const py::object& positions, const py::object& triangles) {
+  const Mesh mesh = mesh_argument(positions, triangles, "mesh");
+  Eigen::SparseMatrix<double> laplacian;
+  {
+    const py::gil_scoped_release unlocked;
+    laplacian = cotangent_laplacian(mesh);
+    laplacian.makeCompressed();
+  }
+  const auto nonzeros = laplacian.nonZeros();
+  Eigen::VectorXd data = Eigen::Map<const Eigen::VectorXd>(laplacian.valuePtr(), nonzeros);
+  Eigen::VectorXi indices = Eigen::Map<const Eigen::VectorXi>(laplacian.innerIndexPtr(), nonzeros);
+  Eigen::VectorXi starts = Eigen::Map<const Eigen::VectorXi>(laplacian.outerIndexPtr(), laplacian.cols() + 1);
+  return py::make_tuple(owning_array(std::move(data)), owning_array(std::move(indices)), owning_array(std::move(starts)), laplacian.rows());
+}
+
+py::array harmonic_field_binding(const py::object& positions, const py::object& triangles, const py::object& sources,
+                                 const py::object& sinks, const std::string& backend) {
+  const Mesh mesh = mesh_argument(positions, triangles, "mesh");
+  EditConstraints constraints;
+  constraints.handles = {indices_argument(sources, "sources")};
+  constraints.fixed = indices_argument(sinks, "sinks");
+  if (constraints.handles.front().empty()) throw InputError("sources: the field needs at least one source vertex");
+  const SolverBackend chosen = backend_argument(backend);
+  Eigen::VectorXd field;
+  {
+    const py::gil_scoped_release unlocked;
+    const auto weights = cotangent_weights(mesh);
+    const auto partition = partition_vertices(mesh, weights, constraints);
+    const DirichletSystem system(cotangent_laplacian(mesh, weights), partition, chosen);
+    field = harmonic_field(system, partition);
+  }
+  return owning_array(std::move(field));
+}
+
+struct TransferArguments {
+  Mesh source;
+  Mesh target;
+  MarkerPairs markers;
+  TransferOptions options;
+};
+
+TransferArguments transfer_arguments(const py::tuple& source_rest, const py::tuple& target, const py::object& markers,
+                                     const std::string& method, int top_n, double mismatch_threshold, const std::string& backend) {
+  if (source_rest.size() != 2 || target.size() != 2) throw py::value_error("source_rest and target must each be a (V, F) pair");
+  TransferArguments arguments{mesh_argument(source_rest[0], source_rest[1], "source mesh"), mesh_argument(target[0], target[1], "target mesh"),
+                              {}, {}};
+  const Eigen::MatrixXi pairs = integer_argument(markers, "markers", 2, "an integer array of shape (k, 2): source vertex, target vertex");
+  for (Eigen::Index k = 0; k < pairs.rows(); ++k) {
+    arguments.markers.source.push_back(pairs(k, 0));
+    arguments.markers.target.push_back(pairs(k, 1));
+  }
+  const auto parsed = parse_transfer_method(method);
+  if (!parsed) throw py::value_error("method must be 'correspondence' or 'interpolation'; got '" + method + "'");
+  arguments.options.method = *parsed;
+  arguments.options.top_n = top_n;
+  arguments.options.mismatch_threshold = mismatch_threshold;
+  arguments.options.backend = backend_argument(backend);
+  return arguments;
+}
+
+py::list transfer_binding(const py::tuple& source_rest, const py::object& source_poses, const py::tuple& target, const py::object& markers,
+                          const std::string& method, int top_n, double mismatch_threshold, const std::string& backend) {
+  auto arguments = transfer_arguments(source_rest, target, markers, method, top_n, mismatch_threshold, backend);
+  if (!py::isinstance<py::sequence>(source_poses)) throw py::value_error("source_poses must be a list of (n, 3) position arrays");
+  std::vector<Eigen::MatrixXd> poses;
+  for (const auto pose : source_poses.cast<py::sequence>()) {
+    const std::string name = "source_poses[" + std::to_string(poses.size()) + "]";
+    poses.push_back(positions_argument(pose, name));
+    if (poses.back().rows() != arguments.source.vertex_count()) {
+      throw py::value_error(name + " has " + std::to_string(poses.back().rows()) + " vertices; the source rest mesh has " +
+                            std::to_string(arguments.source.vertex_count()));
+    }
+  }
+  std::vector<Eigen::MatrixXd> results(poses.size());
+  {
+    const py::gil_scoped_release unlocked;
+    DeformationTransfer transfer(std::move(arguments.source), std::move(arguments.target), std::move(arguments.markers), arguments.options);
+    for (std::size_t p = 0; p < poses.size(); ++p) transfer.transfer(poses[p], results[p]);
+  }
+  py::list out;
+  for (auto& result : results) out.append(owning_array(std::move(result)));
+  return out;
+}
+
+py::tuple correspondence_binding(const py::tuple& source_rest, const py::tuple& target, const py::object& markers, int top_n,
+                                 double mismatch_threshold, const std::string& backend) {
+  auto arguments = transfer_arguments(source_rest, target, markers, "correspondence", top_n, mismatch_threshold, backend);
+  Eigen::VectorXi source_triangle;
+  Eigen::VectorXd distance;
+  std::vector<bool> mismatched;
+  {
+    const py::gil_scoped_release unlocked;
+    const DeformationTransfer transfer(std::move(arguments.source), std::move(arguments.target), std::move(arguments.markers), arguments.options);
+    const auto& match = transfer.match();
+    source_triangle = Eigen::Map<const Eigen::VectorXi>(match.source.data(), static_cast<Eigen::Index>(match.source.size()));
+    distance = Eigen::Map<const Eigen::VectorXd>(match.distance.data(), static_cast<Eigen::Index>(match.distance.size()));
+    mismatched = transfer.mismatched();
+  }
+  py::array_t<bool> mismatch(static_cast<py::ssize_t>(mismatched.size()));
+  for (std::size_t t = 0; t < mismatched.size(); ++t) mismatch.mutable_at(static_cast<py::ssize_t>(t)) = mismatched[t];
+  return py::make_tuple(owning_array(std::move(source_triangle)), owning_array(std::move(distance)), mismatch);
+}
+
+py::dict render_binding(const py::object& positions, const py::object& triangles, const std::filesystem::path& path, const py::object& field,
+                        const py::object& fixed, const py::object& handles, const std::string& size, const std::string& camera,
+                        const std::string& up, bool wireframe, const std::string& device) {
+#ifdef HDEFORM_WITH_ENGINE
+  const Mesh mesh = mesh_argument(positions, triangles, "mesh");
+  engine::Scene scene;
+  scene.positions = mesh.positions;
+  scene.triangles = mesh.triangles;
+  if (!field.is_none()) {
+    const py::array values = as_array(field, "field", "a float array of shape (n,)");
+    if (values.ndim() != 1 || values.shape(0) != mesh.vertex_count() || values.dtype().kind() != 'f') {
+      throw py::value_error("field must be a float array of shape (" + std::to_string(mesh.vertex_count()) + ",); got " + describe_array(values));
+    }
+    const auto view = values.cast<py::array_t<double, py::array::forcecast>>().unchecked<1>();
+    scene.field.resize(mesh.vertex_count());
+    for (Eigen::Index v = 0; v < mesh.vertex_count(); ++v) scene.field(v) = view(v);
+  }
+  if (!fixed.is_none() || !handles.is_none()) {
+    EditConstraints constraints;
+    if (!fixed.is_none()) constraints.fixed = indices_argument(fixed, "fixed");
+    if (!handles.is_none()) {
+      std::size_t h = 0;
+      for (const auto handle : handles.cast<py::sequence>()) constraints.handles.push_back(indices_argument(handle, "handles[" + std::to_string(h++) + "]"));
+    }
+    const auto weights = cotangent_weights(mesh);
+    scene.classes = cli::vertex_classes(partition_vertices(mesh, weights, constraints));
+  }
+  cli::PictureOptions options;
+  options.size = size;
+  options.camera = camera;
+  options.up = up;
+  options.wireframe = wireframe;
+  options.device = device;
+  scene.up = options.up_axis();
+  nlohmann::json report;
+  {
+    const py::gil_scoped_release unlocked;
+    report = cli::render_png(options, scene, path.string());
+  }
+  py::dict result;
+  result["path"] = path.string();
+  result["device"] = report.value("device", std::string());
+  return result;
+#else
+  (void)positions, (void)triangles, (void)path, (void)field, (void)fixed, (void)handles, (void)size, (void)camera, (void)up, (void)wireframe,
+      (void)device;
+  throw std::runtime_error("render: this hdeform was built without the engine (HDEFORM_SOLVER_ONLY)");
+#endif
+}
+
+}  // namespace
+}  // namespace hdeform::python
+
+PYBIND11_MODULE(_core, m) {
+  using namespace hdeform;
+  using namespace hdeform::python;
+  m.doc() = "hdeform: detail-preserving deformation guided by harmonic fields (Zayer et al. 2005)";
+  m.attr("has_render") = py::bool_(
+#ifdef HDEFORM_WITH_ENGINE
+      true
+#else
+      false
+#endif
+  );
+  // Named as users import them: hdeform.InputError, hdeform.SolveError.
+  py::register_exception<InputError>(m, "InputError", PyExc_ValueError).attr("__module__") = "hdeform";
+  py::register_exception<SolveError>(m, "SolveError", PyExc_RuntimeError).attr("__module__") = "hdeform";
+  py::register_exception_translator([](std::exception_ptr error) {
+    try {
+      if (error) std::rethrow_exception(error);
+    } catch (const cli::UsageError& usage) {
+      PyErr_SetString(PyExc_ValueError, usage.what());
+    }
+  });
+
+  py::class_<HandleTransform>(m, "Transform", "A handle's edit: an affine map, or a turn of any size about a line (a twist)")
+      .def(py::init([](const py::object& matrix) { return transform_argument(matrix, "matrix"); }), py::arg("matrix"),
+           "From a 3x4 matrix [A | t] or a 4x4 homogeneous one")
+      .def_static("twist",
+                  [](const std::array<double, 3>& axis, const std::array<double, 3>& point, double degrees, double scale) {
+                    return HandleTransform::about_pivot(Eigen::Vector3d(axis[0], axis[1], axis[2]), Eigen::Vector3d(point[0], point[1], point[2]),
+                                                        degrees * M_PI / 180.0, scale);
+                  },
+                  py::arg("axis"), py::arg("point"), py::arg("degrees"), py::arg("scale") = 1.0,
+                  "A turn by any angle (720 for two turns) about the line through point along axis, blended by angle")
+      .def_property_readonly("matrix", [](const HandleTransform& t) { return owning_array(Eigen::MatrixXd(t.affine())); })
+      .def_property_readonly("degrees", [](const HandleTransform& t) { return t.angle * 180.0 / M_PI; })
+      .def_property_readonly("scale", [](const HandleTransform& t) { return t.scale; })
+      .def("__repr__", [](const HandleTransform& t) {
+        return "<hdeform.Transform " + std::string(t.kind == HandleTransform::Kind::Pose ? "twist" : "affine") + ", " +
+               std::to_string(t.angle * 180.0 / M_PI) + " degrees, scale " + std::to_string(t.scale) + ">";
+      });
+
+  py::class_<PyDeformer>(m, "Deformer", "The editing engine: set up once per mesh and vertex classes, then deform per edit")
+      .def(py::init<const py::object&, const py::object&, const py::object&, const py::object&, const py::object&, const std::string&,
+                    const py::object&, double, bool>(),
+           py::arg("V"), py::arg("F"), py::arg("fixed"), py::arg("handles"), py::arg("roi") = py::none(),
+           py::arg("backend") = std::string(to_string(default_backend())), py::arg("refine") = 0,
+           py::arg("refine_tolerance") = RefinementOptions{}.tolerance, py::arg("acceleration") = true)
+      .def("deform", &PyDeformer::deform, py::arg("transforms"),
+           "Deformed positions (n x 3) for one transform per handle (a Transform or a 3x4 / 4x4 array)")
+      .def_property_readonly("field", &PyDeformer::field, "The harmonic field h: 1 on the handles, 0 on the fixed vertices")
+      .def_property_readonly("warnings", &PyDeformer::warnings)
+      .def_property_readonly("refinement", &PyDeformer::refinement, "The last edit's as-rigid-as-possible refinement")
+      .def_property_readonly("timings", &PyDeformer::timings, "Set-up and last update, milliseconds")
+      .def_property_readonly("vertex_count", &PyDeformer::vertex_count)
+      .def_property_readonly("handle_count", &PyDeformer::handle_count);
+
+  m.def("read_mesh", &read_mesh_binding, py::arg("path"), "(V, F) from an OBJ, PLY, OFF or STL file");
+  m.def("write_mesh", &write_mesh_binding, py::arg("path"), py::arg("V"), py::arg("F"), "Writes .obj or .ply, atomically");
+  m.def("shape", &shape_binding, py::arg("name"), py::arg("resolution") = kDefaultShapeResolution,
+        "A built-in shape and its demo edit: {'V', 'F', 'fixed', 'handles', 'transform'}");
+  m.def("_cotangent_laplacian_csc", &laplacian_binding, py::arg("V"), py::arg("F"));
+  m.def("harmonic_field", &harmonic_field_binding, py::arg("V"), py::arg("F"), py::arg("sources"), py::arg("sinks"),
+        py::arg("backend") = std::string(to_string(default_backend())), "h: 1 at the sources, 0 at the sinks, harmonic elsewhere");
+  m.def("transfer", &transfer_binding, py::arg("source_rest"), py::arg("source_poses"), py::arg("target"), py::arg("markers"),
+        py::arg("method") = "correspondence", py::arg("top_n") = 0, py::arg("mismatch_threshold") = kDefaultMismatchThreshold,
+        py::arg("backend") = std::string(to_string(default_backend())),
+        "The source's poses on the target (paper sections 6 and 7): one (n, 3) array per pose");
+  m.def("correspondence", &correspondence_binding, py::arg("source_rest"), py::arg("target"), py::arg("markers"), py::arg("top_n") = 0,
+        py::arg("mismatch_threshold") = kDefaultMismatchThreshold, py::arg("backend") = std::string(to_string(default_backend())),
+        "Per target triangle: (source triangle, coordinate distance, mismatch)");
+  m.def("render", &render_binding, py::arg("V"), py::arg("F"), py::arg("path"), py::arg("field") = py::none(), py::arg("fixed") = py::none(),
+        py::arg("handles") = py::none(), py::arg("size") = "1024x768", py::arg("camera") = "", py::arg("up") = "z",
+        py::arg("wireframe") = false, py::arg("device") = "", "A PNG of the mesh (the field as colours, fixed and handle vertices marked)");
+}

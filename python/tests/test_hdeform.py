@@ -1,0 +1,213 @@
+"""The Python module against the command line (bit for bit), against what the math guarantees, and
+at its edges: bad shapes and dtypes, the command line's error messages, the GIL released."""
+import os
+import struct
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import hdeform
+
+EXECUTABLE = os.environ.get("HDEFORM_EXECUTABLE", "hdeform")
+SOURCE_DIR = Path(os.environ.get("HDEFORM_SOURCE_DIR", Path(__file__).resolve().parents[2]))
+SHARED = Path(os.environ.get("HDEFORM_SHARED_MESHES", SOURCE_DIR.parent / "shared" / "meshes"))
+needs_shared = pytest.mark.skipif(not SHARED.is_dir(), reason=f"{SHARED} is absent (set HDEFORM_SHARED_MESHES)")
+
+
+def run_cli(*arguments):
+    return subprocess.run([EXECUTABLE, *map(str, arguments)], capture_output=True, text=True)
+
+
+def cli_edit(tmp_path, *arguments):
+    out = tmp_path / "cli.obj"
+    result = run_cli("edit", *arguments, "--out", out, "--quiet")
+    assert result.returncode == 0, result.stderr
+    return hdeform.read_mesh(out)[0]
+
+
+@pytest.mark.parametrize("refine", [0, "auto"])
+def test_the_cactus_demo_equals_the_command_line_bit_for_bit(tmp_path, refine):
+    expected = cli_edit(tmp_path, "--shape", "cactus", "--refine", refine)
+    cactus = hdeform.shape("cactus")
+    deformer = hdeform.Deformer(cactus["V"], cactus["F"], cactus["fixed"], cactus["handles"], refine=refine)
+    assert np.array_equal(deformer.deform([cactus["transform"]]), expected)
+
+
+@needs_shared
+def test_a_benchmark_case_equals_the_command_line_bit_for_bit(tmp_path):
+    base = SHARED / "deformation-benchmark" / "bar"
+    files = [f"{base}.obj", f"{base}-fixed.txt", f"{base}-handle.txt", f"{base}-transform.txt"]
+    expected = cli_edit(tmp_path, "--mesh", files[0], "--fixed", files[1], "--handle", files[2], "--transform", files[3])
+    V, F = hdeform.read_mesh(files[0])
+    fixed = np.loadtxt(files[1], dtype=np.int64)
+    handle = np.loadtxt(files[2], dtype=np.int64)
+    transform = hdeform.Transform(np.loadtxt(files[3]))
+    assert np.array_equal(hdeform.Deformer(V, F, fixed, [handle]).deform([transform]), expected)
+    # The published labels and matrix give the same.
+    labels = np.loadtxt(f"{base}.sel", dtype=np.int64)
+    matrix = np.loadtxt(f"{base}.def")
+    by_labels = hdeform.Deformer(V, F, np.flatnonzero(labels == 0), [np.flatnonzero(labels == 2)]).deform(matrix)
+    assert np.array_equal(by_labels, expected)
+
+
+def test_fixed_vertices_stay_and_the_handle_follows_a_rigid_motion_exactly():
+    bar = hdeform.shape("bar", 16)
+    deformer = hdeform.Deformer(bar["V"], bar["F"], bar["fixed"], bar["handles"])
+    still = deformer.deform(np.hstack([np.eye(3), np.zeros((3, 1))]))  # nothing moves: the rest shape, to round-off
+    assert np.abs(still - bar["V"]).max() <= 1e-9 * np.abs(bar["V"]).max()
+    twist = hdeform.Transform.twist(axis=(0, 0, 1), point=(0, 0, 0), degrees=90)
+    bent = deformer.deform([twist])
+    assert np.array_equal(bent[bar["fixed"]], bar["V"][bar["fixed"]])
+    rotation = twist.matrix[:, :3]
+    handle = bar["handles"][0]
+    assert np.allclose(bent[handle], bar["V"][handle] @ rotation.T + twist.matrix[:, 3], atol=1e-12)
+
+
+def test_wrong_shapes_and_dtypes_raise_clear_value_errors():
+    cactus = hdeform.shape("cactus", 8)
+    V, F, fixed, handles = cactus["V"], cactus["F"], cactus["fixed"], cactus["handles"]
+    cases = [
+        ((V.astype(np.int64), F, fixed, handles), "positions must be a float64 array of shape (n, 3); got int64 of shape"),
+        ((V[:, :2], F, fixed, handles), "got float64 of shape (" + str(len(V)) + ", 2)"),
+        ((V, F.astype(np.float64), fixed, handles), "triangles must be an integer array of shape (m, 3); got float64"),
+        ((V, F[:, :2], fixed, handles), "triangles must be an integer array of shape (m, 3)"),
+        ((V, F, fixed.astype(np.float32), handles), "fixed must be a 1-D array (or list) of vertex indices; got float32"),
+        ((V, F, fixed, handles[0]), "handles[0] must be a 1-D array"),
+        (("not an array", F, fixed, handles), "must be a float64 array of shape (n, 3)"),
+    ]
+    for arguments, fragment in cases:
+        with pytest.raises(ValueError) as error:
+            hdeform.Deformer(*arguments)
+        assert fragment in str(error.value)
+    deformer = hdeform.Deformer(V, F, fixed, handles)
+    with pytest.raises(ValueError, match=r"must be a Transform or a float array of shape \(3, 4\) or \(4, 4\); got float64 of shape \(2, 2\)"):
+        deformer.deform(np.eye(2))
+    with pytest.raises(ValueError, match=r"2 transform\(s\) for 1 handle\(s\)"):
+        deformer.deform([np.eye(4), np.eye(4)])
+    with pytest.raises(ValueError, match="refine must be"):
+        hdeform.Deformer(V, F, fixed, handles, refine="sometimes")
+
+
+def test_errors_carry_the_command_lines_messages(tmp_path):
+    bad = tmp_path / "bad.obj"
+    bad.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 9\n")
+    result = run_cli("edit", "--mesh", bad, "--out", tmp_path / "o.obj")
+    cli_message = result.stderr.strip().splitlines()[-1].removeprefix("hdeform: error: ")
+    with pytest.raises(hdeform.InputError) as error:
+        hdeform.read_mesh(bad)
+    assert str(error.value) == cli_message
+    assert isinstance(error.value, ValueError)
+    cactus = hdeform.shape("cactus", 8)
+    with pytest.raises(hdeform.InputError, match="out of range"):
+        hdeform.Deformer(cactus["V"], cactus["F"], [0, 10**6], cactus["handles"])
+    with pytest.raises(hdeform.InputError, match="reflection"):
+        hdeform.Transform(np.diag([1.0, 1.0, -1.0, 1.0]))
+
+
+def test_the_gil_is_released_while_solving():
+    big = hdeform.shape("cactus", 200)  # about 200,000 triangles
+    counted = 0
+    done = threading.Event()
+
+    def count():
+        nonlocal counted
+        while not done.is_set():
+            counted += 1
+
+    counter = threading.Thread(target=count)
+    counter.start()
+    time.sleep(0.05)
+    before = counted
+    start = time.perf_counter()
+    deformer = hdeform.Deformer(big["V"], big["F"], big["fixed"], big["handles"])
+    deformer.deform([big["transform"]])
+    seconds = time.perf_counter() - start
+    during = counted - before
+    done.set()
+    counter.join()
+    # With the GIL held the counting thread would get a turn only every switch interval (5 ms):
+    # a few hundred increments. Released, it counts all along.
+    assert seconds > 0.1
+    assert during > 200_000 * seconds, f"{during} increments in {seconds:.2f} s"
+
+
+def test_the_laplacian_is_symmetric_with_zero_row_sums_and_positive_semidefinite():
+    scipy_sparse = pytest.importorskip("scipy.sparse")
+    sphere = hdeform.shape("sphere", 12)
+    L = hdeform.cotangent_laplacian(sphere["V"], sphere["F"])
+    assert scipy_sparse.issparse(L) and L.shape == (len(sphere["V"]),) * 2
+    assert abs(L - L.T).max() == 0.0
+    assert np.abs(np.asarray(L.sum(axis=1))).max() < 1e-12
+    x = np.random.default_rng(1).standard_normal(len(sphere["V"]))
+    assert x @ (L @ x) > 0.0
+
+
+def test_the_harmonic_field_obeys_the_maximum_principle_and_matches_the_deformers():
+    cactus = hdeform.shape("cactus", 16)
+    h = hdeform.harmonic_field(cactus["V"], cactus["F"], cactus["handles"][0], cactus["fixed"])
+    assert h.shape == (len(cactus["V"]),)
+    assert h.min() >= 0.0 and h.max() <= 1.0
+    assert np.all(h[cactus["handles"][0]] == 1.0) and np.all(h[cactus["fixed"]] == 0.0)
+    assert np.array_equal(h, hdeform.Deformer(cactus["V"], cactus["F"], cactus["fixed"], cactus["handles"]).field)
+
+
+@pytest.mark.parametrize("method", ["correspondence", "interpolation"])
+def test_transferring_the_rest_pose_onto_the_same_mesh_gives_the_rest_mesh(method):
+    cactus = hdeform.shape("cactus", 16)
+    V, F = cactus["V"], cactus["F"]
+    chosen = np.linspace(0, len(V) - 1, 7).astype(np.int64)
+    markers = np.column_stack([chosen, chosen])
+    (result,) = hdeform.transfer((V, F), [V], (V, F), markers, method=method)
+    assert np.abs(result - V).max() < 1e-9 * np.abs(V).max()
+
+
+def test_a_mesh_corresponds_to_itself():
+    sphere = hdeform.shape("sphere", 12)
+    chosen = np.arange(0, len(sphere["V"]), len(sphere["V"]) // 8)[:8]
+    source, distance, mismatch = hdeform.correspondence((sphere["V"], sphere["F"]), (sphere["V"], sphere["F"]), np.column_stack([chosen, chosen]))
+    assert np.array_equal(source, np.arange(len(sphere["F"])))
+    assert distance.max() == 0.0 and not mismatch.any()
+
+
+def test_meshes_round_trip_through_obj_and_ply(tmp_path):
+    bar = hdeform.shape("bar", 12)
+    for name in ["bar.obj", "bar.ply"]:
+        hdeform.write_mesh(tmp_path / name, bar["V"], bar["F"])
+        V, F = hdeform.read_mesh(tmp_path / name)
+        assert np.array_equal(F, bar["F"])
+        assert np.array_equal(V, bar["V"] if name.endswith(".obj") else bar["V"].astype(np.float32).astype(np.float64))
+    with pytest.raises(hdeform.InputError, match=r"meshes are written as \.obj or \.ply"):
+        hdeform.write_mesh(tmp_path / "bar.stl", bar["V"], bar["F"])
+    assert not (tmp_path / "bar.stl").exists()
+
+
+def test_outputs_are_numpy_arrays_that_own_the_solvers_matrices():
+    cactus = hdeform.shape("cactus", 8)
+    bent = hdeform.Deformer(cactus["V"], cactus["F"], cactus["fixed"], cactus["handles"]).deform([cactus["transform"]])
+    assert bent.dtype == np.float64 and bent.shape == cactus["V"].shape
+    assert bent.flags["F_CONTIGUOUS"] and not bent.flags["OWNDATA"]  # a view of the solver's matrix, not a copy
+
+
+@pytest.mark.skipif(not hdeform.has_render, reason="built without the engine")
+def test_render_writes_a_png_of_the_requested_size(tmp_path):
+    cactus = hdeform.shape("cactus", 12)
+    path = tmp_path / "cactus.png"
+    hdeform.render(cactus["V"], cactus["F"], path, field=np.linspace(0, 1, len(cactus["V"])), size="320x240")
+    header = path.read_bytes()[:24]
+    assert header[:8] == b"\x89PNG\r\n\x1a\n"
+    assert struct.unpack(">II", header[16:24]) == (320, 240)
+
+
+@needs_shared
+def test_the_readme_example_bends_the_buddha(tmp_path):
+    example = SOURCE_DIR / "python" / "examples" / "bend_buddha.py"
+    result = subprocess.run([sys.executable, example, SHARED / "buddha", tmp_path], capture_output=True, text=True)
+    assert result.returncode == 0, result.stderr
+    assert "refinement iterations" in result.stdout
+    V, F = hdeform.read_mesh(tmp_path / "buddha-bent.ply")
+    assert len(V) == 102818
