@@ -126,16 +126,21 @@ bool is_binary_stl(std::string_view content) {
 }
 
 // OpenMesh reports through its own error stream and answers only true or false; the stream is
-// caught for the message. It is global, so one read at a time.
+// caught for the message. It is global, so one read at a time. Connected once for good: each
+// connect allocates a wrapper that disconnect never frees. The stream is never destroyed, since
+// OpenMesh's own stream, a static of its library, may flush into it during exit.
 std::mutex openmesh_stream_mutex;
 
-void quiet_openmesh() {
-  static std::once_flag once;
-  std::call_once(once, [] {
+std::ostringstream& openmesh_errors() {
+  static std::ostringstream* const caught = [] {
+    auto* stream = new std::ostringstream;
     ::omlog().disable();
     ::omout().disable();
     ::omerr().disconnect(std::cerr);
-  });
+    ::omerr().connect(*stream);
+    return stream;
+  }();
+  return *caught;
 }
 
 // The last line OpenMesh wrote, without its "[PLYReader] : " style prefix.
@@ -175,10 +180,10 @@ Mesh parse_with_openmesh(const std::filesystem::path& path, std::string_view con
   bool ended_early = false;
   std::string stream;
   {
-    quiet_openmesh();
     const std::lock_guard lock(openmesh_stream_mutex);
-    std::ostringstream caught;
-    ::omerr().connect(caught);
+    std::ostringstream& caught = openmesh_errors();
+    caught.str({});
+    caught.clear();
     std::istringstream in{std::string(content), std::ios::binary};
     try {
       const std::string extension = format == MeshFormat::Ply ? ".ply" : format == MeshFormat::Off ? ".off" : ".stl";
@@ -190,7 +195,6 @@ Mesh parse_with_openmesh(const std::filesystem::path& path, std::string_view con
       caught << error.what() << '\n';
     }
     ::omerr().flush();
-    ::omerr().disconnect(caught);
     stream = caught.str();
   }
   if (ended_early && importer.problem.empty()) {
