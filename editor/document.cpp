@@ -20,6 +20,7 @@ bool same_constraints(const EditConstraints& a, const EditConstraints& b) {
 struct Document::Build {
   EditConstraints constraints;
   std::shared_ptr<const Mesh> rest;
+  std::shared_ptr<const MeshOperators> operators;  // of `rest`, from the last set-up on it, or null
   std::mutex mutex;
   std::string stage;  // with mutex: the set-up's current stage, for the panel
   BackgroundTask<std::unique_ptr<Deformer>> task;  // last: stops before what it writes to goes
@@ -313,11 +314,13 @@ void Document::start_build() {
   build_ = std::make_unique<Build>();
   build_->constraints = current_stage().constraints();
   build_->rest = rest_;
+  // A new selection on the same rest shape reuses its weights and Laplacian.
+  if (operators_rest_ == rest_) build_->operators = operators_;
   Build* build = build_.get();
   DeformerOptions options = options_;
   options.prepare_refinement = refine_;  // set up with the rest, off the frame loop
   build->task.start("set-up", [build, options] {
-    return std::make_unique<Deformer>(*build->rest, build->constraints, options, [build](std::string_view stage) {
+    return std::make_unique<Deformer>(*build->rest, build->constraints, build->operators, options, [build](std::string_view stage) {
       std::lock_guard lock(build->mutex);
       build->stage = std::string(stage);
     });
@@ -346,6 +349,8 @@ void Document::install_build() {
   failure_.clear();
   stop_pipeline();
   deformer_ = std::move(*outcome.result);
+  operators_ = deformer_->operators();
+  operators_rest_ = build->rest;
   deformer_constraints_ = build->constraints;
   deformer_rest_ = rest_.get();
   request_base_ = last_request_;

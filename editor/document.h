@@ -175,6 +175,9 @@ class Document {
   std::unique_ptr<Deformer> deformer_;
   EditConstraints deformer_constraints_;
   const Mesh* deformer_rest_ = nullptr;
+  // The rest shape's weights and Laplacian, kept across selections (a stroke re-factors only).
+  std::shared_ptr<const MeshOperators> operators_;
+  std::shared_ptr<const Mesh> operators_rest_;
   std::unique_ptr<UpdatePipeline> pipeline_;
   std::unique_ptr<Build> build_;
   std::string failure_;

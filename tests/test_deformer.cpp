@@ -254,3 +254,30 @@ TEST(Deformer, RegionOfInterestLeavesTheOutsideInPlace) {
 
 }  // namespace
 }  // namespace hdeform
+
+namespace hdeform {
+namespace {
+
+// A re-selection reuses the mesh's weights and Laplacian: the result is the fresh set-up's, bit
+// for bit, and the operators are shared, not copied.
+TEST(Reselection, ReusedOperatorsGiveTheFreshResultBitForBit) {
+  const auto shape = make_shape(ShapeKind::Cactus, 24);
+  const Deformer first(shape.mesh, shape.demo_constraints);
+  EditConstraints other = shape.demo_constraints;
+  other.handles.front().resize(other.handles.front().size() / 2);  // a smaller stroke
+  Deformer reused(shape.mesh, other, first.operators());
+  Deformer fresh(shape.mesh, other);
+  EXPECT_EQ(reused.operators().get(), first.operators().get());
+  Eigen::MatrixXd a, b;
+  reused.deform(std::span(&shape.demo_transform, 1), a);
+  fresh.deform(std::span(&shape.demo_transform, 1), b);
+  EXPECT_EQ(a, b);
+  EXPECT_EQ(reused.field(), fresh.field());
+  EXPECT_EQ(reused.refine(a, 5), fresh.refine(b, 5));
+  EXPECT_EQ(a, b);
+  const auto other_mesh = make_shape(ShapeKind::Cactus, 16);
+  EXPECT_THROW(Deformer(other_mesh.mesh, other_mesh.demo_constraints, first.operators()), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace hdeform

@@ -75,23 +75,46 @@ struct Deformer::UpdateGraph {
   }
 };
 
+std::shared_ptr<const MeshOperators> MeshOperators::of(const Mesh& mesh) {
+  validate_mesh(mesh);
+  const auto start = Clock::now();
+  auto operators = std::make_shared<MeshOperators>();
+  std::optional<trace::Scope> stage;
+  stage.emplace("cotangent weights", "set-up");
+  operators->weights = cotangent_weights(mesh);
+  stage.emplace("mesh inspection", "set-up");
+  operators->inspection = inspect_mesh(mesh, operators->weights);
+  stage.emplace("Laplacian", "set-up");
+  operators->laplacian = cotangent_laplacian(mesh, operators->weights);
+  operators->ms = milliseconds_since(start);
+  return operators;
+}
+
 Deformer::Deformer(Mesh rest, EditConstraints constraints, DeformerOptions options, const ProgressCallback& progress)
-    : rest_(std::move(rest)), constraints_(std::move(constraints)), options_(options), update_arena_(std::make_unique<UpdateArena>()) {
+    : Deformer(std::move(rest), std::move(constraints), nullptr, options, progress) {}
+
+Deformer::Deformer(Mesh rest, EditConstraints constraints, std::shared_ptr<const MeshOperators> operators, DeformerOptions options,
+                   const ProgressCallback& progress)
+    : rest_(std::move(rest)), constraints_(std::move(constraints)), options_(options), operators_(std::move(operators)),
+      update_arena_(std::make_unique<UpdateArena>()) {
   auto report = [&](std::string_view stage) {
     if (progress) progress(stage);
   };
   validate_mesh(rest_);
   if (constraints_.handles.empty()) throw InputError("no handle: at least one handle vertex list is needed");
 
-  report("building the cotangent Laplacian");
   auto start = Clock::now();
+  if (!operators_) {
+    report("building the cotangent Laplacian");
+    operators_ = MeshOperators::of(rest_);
+  } else if (operators_->laplacian.rows() != rest_.vertex_count() ||
+             operators_->weights.kind.size() != static_cast<std::size_t>(rest_.triangle_count())) {
+    throw std::invalid_argument("Deformer: the operators given are of another mesh");
+  }
+  const auto& weights = operators_->weights;
   std::optional<trace::Scope> stage;
-  stage.emplace("cotangent weights", "set-up");
-  weights_ = cotangent_weights(rest_);
-  stage.emplace("mesh inspection", "set-up");
-  inspection_ = inspect_mesh(rest_, weights_);
   stage.emplace("vertex partition", "set-up");
-  partition_ = partition_vertices(rest_, weights_, constraints_);
+  partition_ = partition_vertices(rest_, weights, constraints_);
   if (!partition_.handles_without_sink.empty()) {
     const int h = partition_.handles_without_sink.front() + 1;
     throw InputError((handle_count() == 1 ? std::string("the handle") : "handle " + std::to_string(h)) +
@@ -100,8 +123,7 @@ Deformer::Deformer(Mesh rest, EditConstraints constraints, DeformerOptions optio
                      "vertices there, or give a region of interest (the vertices outside it stay fixed).");
   }
   handle_warnings_ = handle_shape_warnings(rest_, constraints_);
-  stage.emplace("Laplacian", "set-up");
-  const auto laplacian = cotangent_laplacian(rest_, weights_);
+  const auto& laplacian = operators_->laplacian;
   timings_.laplacian_ms = milliseconds_since(start);
 
   stage.emplace("factorization", "set-up");
@@ -218,7 +240,7 @@ Deformer::Deformer(Mesh rest, EditConstraints constraints, DeformerOptions optio
 
 void Deformer::prepare_refinement() {
   graph_->graph.wait_for_all();
-  refinement_ = std::make_unique<detail::ArapRefinement>(rest_, weights_, *system_, update_triangles_, options_.refinement);
+  refinement_ = std::make_unique<detail::ArapRefinement>(rest_, operators_->weights, *system_, update_triangles_, options_.refinement);
   auto& g = *graph_;
   std::vector<Node*> chain;
   // Each stage keeps its own time (RefinementTimings); the graph adds none.
@@ -238,7 +260,7 @@ void Deformer::prepare_update_triangles() {
   const auto& row_of_vertex = system_->row_of_vertex();
   std::vector<std::pair<int, int>> first_row;  // (smallest free row among the corners, triangle)
   for (Eigen::Index t = 0; t < rest_.triangle_count(); ++t) {
-    if (weights_.kind[static_cast<std::size_t>(t)] == ElementKind::Ignored) continue;
+    if (operators_->weights.kind[static_cast<std::size_t>(t)] == ElementKind::Ignored) continue;
     int row = std::numeric_limits<int>::max();
     for (int k = 0; k < 3; ++k) {
       const int r = row_of_vertex[static_cast<std::size_t>(rest_.triangles(t, k))];
@@ -257,8 +279,8 @@ void Deformer::prepare_update_triangles() {
     const int t = first_row[static_cast<std::size_t>(k)].second;
     update_triangles_[static_cast<std::size_t>(k)] = t;
     update_mesh.triangles.row(k) = rest_.triangles.row(t);
-    update_weights.half_cotangent.row(k) = weights_.half_cotangent.row(t);
-    update_weights.kind[static_cast<std::size_t>(k)] = weights_.kind[static_cast<std::size_t>(t)];
+    update_weights.half_cotangent.row(k) = operators_->weights.half_cotangent.row(t);
+    update_weights.kind[static_cast<std::size_t>(k)] = operators_->weights.kind[static_cast<std::size_t>(t)];
   }
   update_mesh_triangles_ = std::move(update_mesh.triangles);
   update_mesh.triangles = update_mesh_triangles_;
@@ -271,7 +293,7 @@ Deformer::~Deformer() {
 }
 
 std::vector<std::string> Deformer::warnings() const {
-  auto lines = inspection_.warnings();
+  auto lines = operators_->inspection.warnings();
   lines.insert(lines.end(), partition_.warnings.begin(), partition_.warnings.end());
   lines.insert(lines.end(), handle_warnings_.begin(), handle_warnings_.end());
   return lines;
