@@ -10,6 +10,7 @@
 #include "hdeform/constraint_io.h"
 #include "hdeform/deformer.h"
 #include "hdeform/errors.h"
+#include "hdeform/subdivision.h"
 #include "hdeform/trace.h"
 #include "hdeform/update_pipeline.h"
 #include "hdeform/stopwatch.h"
@@ -34,6 +35,28 @@ std::vector<std::vector<int>> split_by_x(const Mesh& mesh, std::vector<int> hand
   return {first, second};
 }
 
+// Five handles of `size` vertices about vertices spread over the mesh (the nearest ones, fixed
+// vertices left out): the re-selection scenario, a new stroke each time.
+std::vector<std::vector<int>> spread_handles(const Mesh& mesh, const std::vector<int>& fixed, std::size_t size) {
+  std::vector<bool> is_fixed(static_cast<std::size_t>(mesh.vertex_count()), false);
+  for (const int v : fixed) is_fixed[static_cast<std::size_t>(v)] = true;
+  std::vector<std::vector<int>> handles;
+  for (int k = 1; k <= 5; ++k) {
+    const Eigen::RowVector3d centre = mesh.positions.row(mesh.vertex_count() * k / 6);
+    std::vector<std::pair<double, int>> by_distance;
+    for (Eigen::Index v = 0; v < mesh.vertex_count(); ++v) {
+      if (!is_fixed[static_cast<std::size_t>(v)]) by_distance.emplace_back((mesh.positions.row(v) - centre).squaredNorm(), static_cast<int>(v));
+    }
+    const std::size_t count = std::min(size, by_distance.size());
+    std::partial_sort(by_distance.begin(), by_distance.begin() + static_cast<std::ptrdiff_t>(count), by_distance.end());
+    std::vector<int> handle;
+    for (std::size_t i = 0; i < count; ++i) handle.push_back(by_distance[i].second);
+    std::sort(handle.begin(), handle.end());
+    handles.push_back(std::move(handle));
+  }
+  return handles;
+}
+
 class BenchCommand final : public BatchCommand {
  public:
   CLI::App* add_to(CLI::App& app) override {
@@ -43,6 +66,10 @@ class BenchCommand final : public BatchCommand {
     command->add_option("--handle", handle_path_, "Handle vertices: 0-based indices");
     command->add_option("--transform", transform_path_, "Handle transform (as for edit)");
     command->add_option("--steps", steps_, "Drag updates per measurement")->capture_default_str();
+    command->add_option("--subdivide", subdivide_,
+                        "Split every triangle into four this many times first (new vertices after the originals, fixed or handle "
+                        "where both parents are); measures the backends, the default schedule and the pipeline only")
+        ->capture_default_str();
     command->add_option("--threads", threads_, "Worker threads (default: all cores)");
     command->add_option("--out", out_path_, "Also write the JSON report to this file");
     command->add_flag("--quiet", quiet_, "No progress on stderr");
@@ -83,6 +110,17 @@ class BenchCommand final : public BatchCommand {
     } else {
       throw UsageError("give --handle, --transform (and --fixed), or a --shape");
     }
+    if (subdivide_ < 0 || subdivide_ > 4) throw UsageError("--subdivide must be between 0 and 4");
+    const Eigen::Index file_vertices = loaded.mesh.vertex_count(), file_triangles = loaded.mesh.triangle_count();
+    double subdivide_ms = 0.0;
+    for (int level = 0; level < subdivide_; ++level) {
+      progress("subdividing: " + std::to_string(4 * loaded.mesh.triangle_count()) + " triangles");
+      const auto subdivide_start = Clock::now();
+      Subdivision subdivision = subdivide(loaded.mesh);
+      constraints = subdivided_constraints(constraints, subdivision);
+      loaded.mesh = std::move(subdivision.mesh);
+      subdivide_ms += milliseconds_since(subdivide_start);
+    }
     const Mesh& mesh = loaded.mesh;
 #ifdef HDEFORM_WITH_ENGINE
     if (render_) {
@@ -105,6 +143,10 @@ class BenchCommand final : public BatchCommand {
                              {"threads", solver.effective_threads()},
                              {"steps", steps_},
                              {"read_ms", read_ms}};
+    if (subdivide_ > 0) {
+      report["subdivide"] = {{"levels", subdivide_}, {"ms", subdivide_ms}, {"file_vertices", file_vertices}, {"file_triangles", file_triangles},
+                             {"fixed", constraints.fixed.size()}, {"handle", constraints.handles[0].size()}};
+    }
 
     // One drag of `steps_` updates, after one warm-up update; per-update milliseconds, and the
     // median of each stage in `stages` when given.
@@ -130,6 +172,25 @@ class BenchCommand final : public BatchCommand {
       }
       return summarize(samples);
     };
+
+    // Opening (read, then set up until the first drag can be answered) and re-selection (a new
+    // handle on the same mesh: the mesh's operators reused, the factorization and field redone).
+    {
+      progress("open and re-selection");
+      const auto setup_start = Clock::now();
+      const Deformer opened(mesh, constraints);
+      report["open_ms"] = read_ms + milliseconds_since(setup_start);
+      std::vector<double> samples;
+      for (auto& handle : spread_handles(mesh, constraints.fixed, constraints.handles[0].size())) {
+        EditConstraints reselected = constraints;
+        reselected.handles = {std::move(handle)};
+        const auto reselect_start = Clock::now();
+        const Deformer deformer(mesh, reselected, opened.operators());
+        samples.push_back(milliseconds_since(reselect_start));
+      }
+      report["reselect_ms"] = to_json(summarize(samples));
+      report["operators_ms"] = opened.operators()->ms;
+    }
 
     // Backends: factorization and agreement of the final result.
     std::vector<Eigen::MatrixXd> results;
@@ -160,6 +221,7 @@ class BenchCommand final : public BatchCommand {
     EditConstraints two_handles = constraints;
     two_handles.handles = split_by_x(mesh, constraints.handles[0]);
     for (const auto schedule : {SolveSchedule::Blocked, SolveSchedule::PerColumn, SolveSchedule::ThreadGroups}) {
+      if (subdivide_ > 0 && schedule != default_schedule()) continue;
       const std::string name(to_string(schedule));
       progress("schedule " + name);
       Eigen::MatrixXd positions;
@@ -191,8 +253,10 @@ class BenchCommand final : public BatchCommand {
       }
     }
 
-    bench_refinement(mesh, constraints, transform, report, progress);
-    bench_trace_overhead(mesh, constraints, transform, report, progress);
+    if (subdivide_ == 0) {
+      bench_refinement(mesh, constraints, transform, report, progress);
+      bench_trace_overhead(mesh, constraints, transform, report, progress);
+    }
 
     // The update as the editor runs it: posted to the pipeline's thread, one request at a time.
     {
@@ -343,6 +407,7 @@ class BenchCommand final : public BatchCommand {
   std::string transform_path_;
   std::string out_path_;
   int steps_ = 30;
+  int subdivide_ = 0;
   int threads_ = 0;
   bool quiet_ = false;
 #ifdef HDEFORM_WITH_ENGINE

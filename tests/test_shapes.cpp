@@ -1,9 +1,13 @@
+#include <array>
 #include <algorithm>
 #include <map>
+#include <set>
 
+#include "hdeform/deformer.h"
 #include "hdeform/laplacian.h"
 #include "hdeform/mesh_check.h"
 #include "hdeform/shapes.h"
+#include "hdeform/subdivision.h"
 #include "test_support.h"
 
 namespace hdeform {
@@ -87,6 +91,77 @@ TEST(Shapes, CactusHasATrunkAndTwoArms) {
     EXPECT_LT(p(v, 1), -0.15);
     EXPECT_GT(p(v, 2), 0.4);
   }
+}
+
+}  // namespace
+}  // namespace hdeform
+
+namespace hdeform {
+namespace {
+
+double surface_area(const Mesh& mesh) {
+  double area = 0.0;
+  for (Eigen::Index t = 0; t < mesh.triangle_count(); ++t) {
+    const Eigen::Vector3d a = mesh.positions.row(mesh.triangles(t, 0)), b = mesh.positions.row(mesh.triangles(t, 1)),
+                          c = mesh.positions.row(mesh.triangles(t, 2));
+    area += 0.5 * (b - a).cross(c - a).norm();
+  }
+  return area;
+}
+
+double enclosed_volume(const Mesh& mesh) {  // signed: positive for outward counter-clockwise triangles
+  double volume = 0.0;
+  for (Eigen::Index t = 0; t < mesh.triangle_count(); ++t) {
+    const Eigen::Vector3d a = mesh.positions.row(mesh.triangles(t, 0)), b = mesh.positions.row(mesh.triangles(t, 1)),
+                          c = mesh.positions.row(mesh.triangles(t, 2));
+    volume += a.dot(b.cross(c)) / 6.0;
+  }
+  return volume;
+}
+
+TEST(Subdivision, SplitsEveryTriangleInPlaceKeepingTheOriginalsAndTheShape) {
+  const auto shape = make_shape(ShapeKind::Cylinder, 16);
+  const Mesh& mesh = shape.mesh;
+  const Subdivision once = subdivide(mesh);
+  const Eigen::Index edges = 3 * mesh.triangle_count() / 2;  // closed and edge-manifold
+  EXPECT_EQ(once.mesh.vertex_count(), mesh.vertex_count() + edges);
+  EXPECT_EQ(once.mesh.triangle_count(), 4 * mesh.triangle_count());
+  EXPECT_EQ(once.mesh.positions.topRows(mesh.vertex_count()), mesh.positions);
+  std::set<std::array<int, 2>> distinct(once.parents.begin(), once.parents.end());
+  EXPECT_EQ(distinct.size(), once.parents.size());
+  for (std::size_t i = 0; i < once.parents.size(); ++i) {
+    const auto [a, b] = once.parents[i];
+    EXPECT_LT(a, b);
+    EXPECT_EQ(once.mesh.positions.row(mesh.vertex_count() + static_cast<Eigen::Index>(i)), 0.5 * (mesh.positions.row(a) + mesh.positions.row(b)));
+  }
+  // Split in their planes and oriented alike: the same area and the same enclosed volume.
+  EXPECT_NEAR(surface_area(once.mesh), surface_area(mesh), 1e-12 * surface_area(mesh));
+  EXPECT_NEAR(enclosed_volume(once.mesh), enclosed_volume(mesh), 1e-12 * enclosed_volume(mesh));
+  EXPECT_GT(enclosed_volume(once.mesh), 0.0);
+  expect_closed_oriented_manifold(once.mesh, "subdivided cylinder");
+  const Subdivision twice = subdivide(once.mesh);
+  EXPECT_EQ(twice.mesh.triangle_count(), 16 * mesh.triangle_count());
+  // Euler characteristic of the closed cylinder, 2, at every level: V - E + F with E = 3F/2.
+  EXPECT_EQ(twice.mesh.vertex_count() - 3 * twice.mesh.triangle_count() / 2 + twice.mesh.triangle_count(), 2);
+}
+
+TEST(Subdivision, ANewVertexJoinsASetWhenBothItsParentsAreInIt) {
+  const auto shape = make_shape(ShapeKind::Cactus, 12);
+  const Subdivision once = subdivide(shape.mesh);
+  const auto constraints = subdivided_constraints(shape.demo_constraints, once);
+  std::set<int> fixed(shape.demo_constraints.fixed.begin(), shape.demo_constraints.fixed.end());
+  std::set<int> lifted(constraints.fixed.begin(), constraints.fixed.end());
+  EXPECT_TRUE(std::is_sorted(constraints.fixed.begin(), constraints.fixed.end()));
+  for (std::size_t i = 0; i < once.parents.size(); ++i) {
+    const int v = static_cast<int>(once.original_vertices) + static_cast<int>(i);
+    EXPECT_EQ(lifted.count(v) == 1, fixed.count(once.parents[i][0]) == 1 && fixed.count(once.parents[i][1]) == 1) << "vertex " << v;
+  }
+  for (const int v : fixed) EXPECT_EQ(lifted.count(v), 1u);
+  // The subdivided edit deforms like any other: fixed vertices stay exactly.
+  Deformer deformer(once.mesh, constraints);
+  Eigen::MatrixXd positions;
+  deformer.deform(std::span(&shape.demo_transform, 1), positions);
+  for (const int v : constraints.fixed) EXPECT_EQ(positions.row(v), once.mesh.positions.row(v));
 }
 
 }  // namespace
