@@ -248,6 +248,12 @@ TEST(MeshFormats, MalformedFilesNameTheFileAndTheProblem) {
   expect_refused(dir, "counts.off", "OFF\n# counts next\n3 one 0\n", ":3: 'one' is not a count");
   expect_refused(dir, "huge.off", "OFF\n900000000 1 0\n0 0 0\n", ":2: the header declares more than the file holds");
   expect_refused(dir, "binary.off", "OFF BINARY\n\1\2\3", "binary");
+  // A face count beyond what its line holds (OpenMesh would read that many, 9e10 here: the fuzzer's find).
+  expect_refused(dir, "face-count.off", "OFF\n3 2 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n90000000000 0 1 2\n",
+                 ":7: face 1 declares '90000000000' vertices but its line holds 3 numbers");
+  expect_refused(dir, "wide-list.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+                 "element face 1\nproperty list int int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n",
+                 ":8: list lengths of type 'int' are not read (uchar or ushort)");
   expect_refused(dir, "garbage.stl", "\x01\x02 not an STL", "neither ASCII STL");
   expect_refused(dir, "empty.stl", "", "neither ASCII STL");
   expect_refused(dir, "points.xyz", "0 0 0\n", "unknown mesh format '.xyz' (.obj, .ply, .off or .stl)");

@@ -97,6 +97,11 @@ void check_ply_header(const std::filesystem::path& path, std::string_view conten
       if (tokens.size() == 5 && tokens[1] == "list") {
         const auto length_size = ply_type_size(tokens[2]);
         if (!length_size || !ply_type_size(tokens[3])) fail_at(path, line_number, "unknown property type in " + quoted(line));
+        // OpenMesh reads as many items as a list's length says, whatever the file holds: a 4-byte
+        // length could ask for billions. One or two bytes are what PLY writers use.
+        if (*length_size > 2) {
+          fail_at(path, line_number, "list lengths of type " + quoted(tokens[2]) + " are not read (uchar or ushort)");
+        }
         element.fixed_bytes += *length_size;
         element.list_names.push_back(tokens[4]);
       } else if (tokens.size() == 3) {
@@ -188,6 +193,23 @@ std::string checked_off_content(const std::filesystem::path& path, std::string_v
                                       std::to_string(counts[1]) + " faces need at least " + std::to_string(least_bytes) + " bytes; " +
                                       std::to_string(body) + " follow the counts)");
   }
+  // OpenMesh reads as many indices as a face's count says, whatever the file holds (a count of
+  // 9·10¹⁰ allocated until memory ran out), so each face line must hold its count's indices. The
+  // vertices come first, one non-blank line each.
+  std::size_t seen = 0;
+  for_each_raw_line(std::string_view(text).substr(body_start), [&](std::size_t line, std::string_view raw) {
+    const auto tokens = tokens_of(raw);
+    if (tokens.empty() || seen >= counts[0] + counts[1]) return;
+    const std::size_t index = seen++;
+    if (index < counts[0]) return;  // a vertex
+    const std::size_t face = index - counts[0];
+    const auto size = parse_count(tokens[0]);
+    if (!size || *size > tokens.size() - 1) {
+      fail_at(path, words[3].first + line - 1,
+              "face " + std::to_string(face) + " declares " + quoted(tokens[0]) + " vertices but its line holds " +
+                  std::to_string(tokens.size() - 1) + " numbers (one face per line)");
+    }
+  });
   // OpenMesh wants the header token on the first line and the counts on the next; the body keeps
   // its lines.
   return std::string(header) + "\n" + std::to_string(counts[0]) + " " + std::to_string(counts[1]) + " " + std::to_string(counts[2]) +
