@@ -26,9 +26,9 @@ Mesh float_exact_cactus() {
   return mesh;
 }
 
-std::string decimal(double value) {
+std::string decimal(double value, int digits = 9) {  // 9: a float exactly, 17: a double
   std::array<char, 40> buffer;
-  std::snprintf(buffer.data(), buffer.size(), "%.9g", value);
+  std::snprintf(buffer.data(), buffer.size(), "%.*g", digits, value);
   return buffer.data();
 }
 
@@ -78,8 +78,8 @@ std::string big_endian_ply(const Mesh& mesh) {
 
 std::string off_text(const Mesh& mesh) {
   std::string text = "OFF\n# a comment\n" + std::to_string(mesh.vertex_count()) + " " + std::to_string(mesh.triangle_count()) + " 0\n";
-  for (Eigen::Index v = 0; v < mesh.vertex_count(); ++v) {
-    text += decimal(mesh.positions(v, 0)) + " " + decimal(mesh.positions(v, 1)) + " " + decimal(mesh.positions(v, 2)) + "\n";
+  for (Eigen::Index v = 0; v < mesh.vertex_count(); ++v) {  // OFF is read in double precision
+    text += decimal(mesh.positions(v, 0), 17) + " " + decimal(mesh.positions(v, 1), 17) + " " + decimal(mesh.positions(v, 2), 17) + "\n";
   }
   for (Eigen::Index t = 0; t < mesh.triangle_count(); ++t) {
     text += "3 " + std::to_string(mesh.triangles(t, 0)) + " " + std::to_string(mesh.triangles(t, 1)) + " " + std::to_string(mesh.triangles(t, 2)) + "\n";
@@ -250,7 +250,10 @@ TEST(MeshFormats, MalformedFilesNameTheFileAndTheProblem) {
   expect_refused(dir, "binary.off", "OFF BINARY\n\1\2\3", "binary");
   // A face count beyond what its line holds (OpenMesh would read that many, 9e10 here: the fuzzer's find).
   expect_refused(dir, "face-count.off", "OFF\n3 2 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n90000000000 0 1 2\n",
-                 ":7: face 1 declares '90000000000' vertices but its line holds 3 numbers");
+                 ":7: face 1 size '90000000000' is not a count");
+  expect_refused(dir, "face-short.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n4 0 1 2\n", ":6: face 0 declares 4 vertices but its line holds 3 numbers");
+  expect_refused(dir, "vertex-short.off", "OFF\n3 1 0\n0 0 0\n1 0\n0 1 0\n3 0 1 2\n", ":4: vertex 1 needs 3 coordinates, found 2");
+  expect_refused(dir, "ends-early.off", "OFF\n3 2 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n", ":6: the file ends after 3 of 3 vertices and 1 of 2 faces");
   expect_refused(dir, "wide-list.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
                  "element face 1\nproperty list int int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n",
                  ":8: list lengths of type 'int' are not read (uchar or ushort)");

@@ -169,12 +169,7 @@ Mesh parse_with_openmesh(const std::filesystem::path& path, std::string_view con
     }
   }
   if (content.empty()) throw InputError(name + ": an empty file");
-  std::string checked;
   if (format == MeshFormat::Ply) detail::check_ply_header(path, content);
-  if (format == MeshFormat::Off) {
-    checked = detail::checked_off_content(path, content);
-    content = checked;
-  }
   ArrayImporter importer;
   bool read = false;
   bool ended_early = false;
@@ -186,7 +181,7 @@ Mesh parse_with_openmesh(const std::filesystem::path& path, std::string_view con
     caught.clear();
     std::istringstream in{std::string(content), std::ios::binary};
     try {
-      const std::string extension = format == MeshFormat::Ply ? ".ply" : format == MeshFormat::Off ? ".off" : ".stl";
+      const std::string extension = format == MeshFormat::Ply ? ".ply" : ".stl";
       read = om::IO::IOManager().read(in, extension, importer, options);
       // A PLY or OFF body that ends early leaves the missing values at zero but fails the stream
       // (the STL reader always reads to a failure).
@@ -238,6 +233,10 @@ Mesh parse_mesh(const std::filesystem::path& path, std::string_view content) {
                      std::string(kReadableMeshFormats) + ")");
   }
   if (*format == MeshFormat::Obj) return parse_obj(path, content);
+  if (*format == MeshFormat::Off) {
+    if (content.empty()) throw InputError(path.string() + ": an empty file");
+    return detail::parse_off(path, content);
+  }
   return parse_with_openmesh(path, content, *format);
 }
 

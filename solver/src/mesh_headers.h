@@ -1,12 +1,14 @@
 #pragma once
-// The headers of PLY and OFF files, checked strictly before OpenMesh reads the body. OpenMesh's
-// readers trust the header: a count that does not parse or is larger than the file could hold
+// What OpenMesh's readers cannot be trusted with. The PLY header is checked strictly before
+// OpenMesh reads the body, since OpenMesh trusts the header: a count that does not parse or is larger than the file could hold
 // makes them allocate until memory runs out (minutes, then std::bad_alloc), a misspelt magic
 // reads garbage as a mesh, and a comment before OFF's counts is taken for the counts. Each check
 // throws InputError "<file>:<line>: <problem>".
 #include <filesystem>
 #include <string>
 #include <string_view>
+
+#include "hdeform/mesh.h"
 
 namespace hdeform::detail {
 
@@ -15,9 +17,12 @@ namespace hdeform::detail {
 // vertex_index) list; counts that fit in the bytes after the header.
 void check_ply_header(const std::filesystem::path& path, std::string_view content);
 
-// An ASCII OFF file (OFF, COFF, NOFF, CNOFF, STOFF... headers) made ready for OpenMesh: the
-// header and the counts checked (counts that fit in the file), comments blanked out and the
-// counts moved to the line after the header, line numbers of the body unchanged.
-std::string checked_off_content(const std::filesystem::path& path, std::string_view content);
+// An ASCII OFF file (OFF, COFF, NOFF, CNOFF, STOFF... headers), read here rather than by OpenMesh,
+// whose reader takes a face's size from its token stream and reads that many indices whatever
+// the file holds (a 100-byte file made it allocate 2 GB). One vertex per line (x y z, then
+// colours or normals, ignored), one face per line (its size, that many indices, then a colour,
+// ignored); '#' comments anywhere. Coordinates in double precision. Throws InputError
+// "<file>:<line>: <problem>".
+Mesh parse_off(const std::filesystem::path& path, std::string_view content);
 
 }  // namespace hdeform::detail
