@@ -1,4 +1,4 @@
-// PLY, OFF and STL through OpenMesh's readers, into plain arrays: an importer of our own keeps
+// PLY and STL through OpenMesh's readers (OFF has its own, mesh_headers.h), into plain arrays: an importer of our own keeps
 // every vertex in file order and every face as written (OpenMesh's own meshes would drop or
 // split faces at non-manifold edges), and the faces become triangles by the OBJ reader's rule.
 #include <OpenMesh/Core/IO/MeshIO.hh>
@@ -183,9 +183,9 @@ Mesh parse_with_openmesh(const std::filesystem::path& path, std::string_view con
     try {
       const std::string extension = format == MeshFormat::Ply ? ".ply" : ".stl";
       read = om::IO::IOManager().read(in, extension, importer, options);
-      // A PLY or OFF body that ends early leaves the missing values at zero but fails the stream
-      // (the STL reader always reads to a failure).
-      ended_early = format != MeshFormat::Stl && in.fail() && !in.bad();
+      // A PLY body that ends early leaves the missing values at zero but fails the stream (the
+      // STL reader always reads to a failure).
+      ended_early = format == MeshFormat::Ply && in.fail() && !in.bad();
     } catch (const std::exception& error) {
       caught << error.what() << '\n';
     }

@@ -1,9 +1,9 @@
 #pragma once
 // What OpenMesh's readers cannot be trusted with. The PLY header is checked strictly before
-// OpenMesh reads the body, since OpenMesh trusts the header: a count that does not parse or is larger than the file could hold
-// makes them allocate until memory runs out (minutes, then std::bad_alloc), a misspelt magic
-// reads garbage as a mesh, and a comment before OFF's counts is taken for the counts. Each check
-// throws InputError "<file>:<line>: <problem>".
+// OpenMesh reads the body, since OpenMesh trusts it: a count that does not parse or is larger
+// than the file could hold made it allocate until memory ran out (minutes, then
+// std::bad_alloc), and a misspelt magic read garbage as a mesh. Each check throws InputError
+// "<file>:<line>: <problem>".
 #include <filesystem>
 #include <string>
 #include <string_view>
