@@ -97,7 +97,7 @@ LoadedMesh load_mesh(const MeshSource& source) {
 }
 
 void SolverChoice::add_options(CLI::App& command) {
-  command.add_option("--backend", backend, "Factorization backend: eigen or cholmod")->capture_default_str();
+  command.add_option("--backend", backend, "Factorization backend: tree (ours, both cores), eigen or cholmod")->capture_default_str();
   command.add_option("--schedule", schedule, "Column solves: blocked, per-column or thread-groups")->capture_default_str();
   command.add_option("--threads", threads, "Worker threads (default: all cores)");
 }
@@ -146,7 +146,7 @@ RefinementOptions RefineChoice::options() const {
 
 SolverBackend SolverChoice::parsed_backend() const {
   const auto parsed = parse_backend(backend);
-  if (!parsed) throw UsageError("unknown backend '" + backend + "' (eigen, cholmod)");
+  if (!parsed) throw UsageError("unknown backend '" + backend + "' (tree, eigen, cholmod)");
   if (!backend_available(*parsed)) throw UsageError("this build has no " + backend + " backend");
   return *parsed;
 }

@@ -279,5 +279,28 @@ TEST(Reselection, ReusedOperatorsGiveTheFreshResultBitForBit) {
   EXPECT_THROW(Deformer(other_mesh.mesh, other_mesh.demo_constraints, first.operators()), std::invalid_argument);
 }
 
+// The same free vertices on the same mesh (a handle vertex made fixed, say): L_ff's pattern is
+// unchanged, so its analysis is taken from the last set-up; the result is the fresh one's.
+TEST(Reselection, TheSameFreeVerticesReuseTheAnalysis) {
+  const auto shape = make_shape(ShapeKind::Cactus, 24);
+  const Deformer first(shape.mesh, shape.demo_constraints);
+  EXPECT_FALSE(first.system().factor().reused_analysis());
+  EditConstraints moved = shape.demo_constraints;
+  moved.fixed.push_back(moved.handles.front().back());  // now fixed instead of handle
+  moved.handles.front().pop_back();
+  Deformer reused(shape.mesh, moved, first.operators());
+  Deformer fresh(shape.mesh, moved);
+  EXPECT_TRUE(reused.system().factor().reused_analysis());
+  EXPECT_FALSE(fresh.system().factor().reused_analysis());
+  Eigen::MatrixXd a, b;
+  reused.deform(std::span(&shape.demo_transform, 1), a);
+  fresh.deform(std::span(&shape.demo_transform, 1), b);
+  EXPECT_EQ(a, b);
+  // A different free set is analysed again.
+  EditConstraints smaller = shape.demo_constraints;
+  smaller.handles.front().resize(smaller.handles.front().size() / 2);
+  EXPECT_FALSE(Deformer(shape.mesh, smaller, first.operators()).system().factor().reused_analysis());
+}
+
 }  // namespace
 }  // namespace hdeform

@@ -1,5 +1,10 @@
 #include <Eigen/Dense>
+#include <Eigen/SparseCholesky>
+#include <tbb/task_arena.h>
+
 #include <random>
+#include <span>
+#include <stdexcept>
 
 #include "hdeform/constraints.h"
 #include "hdeform/dirichlet_system.h"
@@ -32,7 +37,7 @@ Eigen::MatrixXd random_matrix(Eigen::Index rows, Eigen::Index columns, unsigned 
 
 std::vector<SolverBackend> backends() {
   std::vector<SolverBackend> available;
-  for (auto backend : {SolverBackend::Eigen, SolverBackend::Cholmod}) {
+  for (auto backend : kSolverBackends) {
     if (backend_available(backend)) available.push_back(backend);
   }
   return available;
@@ -73,6 +78,113 @@ TEST(SparseCholesky, RejectsAnIndefiniteMatrix) {
     SparseCholesky factor;
     EXPECT_THROW(factor.factor(indefinite, backend), SolveError) << to_string(backend);
   }
+}
+
+// The elimination-tree factorization on a matrix large enough to be split over threads.
+Eigen::SparseMatrix<double> split_matrix() {
+  const auto matrix = spd_matrix(make_shape(ShapeKind::Cactus, 48).mesh);
+  EXPECT_GE(matrix.rows(), 4000);
+  return matrix;
+}
+
+Eigen::MatrixXd solve_in_arena(const Eigen::SparseMatrix<double>& matrix, const Eigen::MatrixXd& rhs, int threads,
+                               std::size_t* subtrees = nullptr) {
+  tbb::task_arena arena(threads);
+  return arena.execute([&] {
+    SparseCholesky factor;
+    factor.factor(matrix, SolverBackend::Tree);
+    if (subtrees != nullptr) *subtrees = factor.subtree_count();
+    return factor.solve(rhs);
+  });
+}
+
+TEST(TreeFactorization, IsBitIdenticalOnAnyNumberOfThreads) {
+  const auto matrix = split_matrix();
+  const Eigen::MatrixXd rhs = random_matrix(matrix.rows(), 3, 11);
+  std::size_t one_subtrees = 0, two_subtrees = 0, three_subtrees = 0;
+  const Eigen::MatrixXd one = solve_in_arena(matrix, rhs, 1, &one_subtrees);
+  const Eigen::MatrixXd two = solve_in_arena(matrix, rhs, 2, &two_subtrees);
+  const Eigen::MatrixXd three = solve_in_arena(matrix, rhs, 3, &three_subtrees);
+  EXPECT_EQ(one_subtrees, 0u);  // sequential: every row in the top part
+  EXPECT_EQ(two_subtrees, 2u);
+  EXPECT_EQ(three_subtrees, 3u);
+  EXPECT_EQ(one, two);
+  EXPECT_EQ(one, three);
+}
+
+TEST(TreeFactorization, AgreesWithSequentialEigenAndADenseSolve) {
+  const auto matrix = split_matrix();
+  const Eigen::MatrixXd rhs = random_matrix(matrix.rows(), 2, 12);
+  Eigen::SimplicialLLT<Eigen::SparseMatrix<double>> reference(matrix);
+  ASSERT_EQ(reference.info(), Eigen::Success);
+  const Eigen::MatrixXd expected = reference.solve(rhs);
+  const Eigen::MatrixXd tree = solve_in_arena(matrix, rhs, 2);
+  EXPECT_LE(test::relative_difference(tree, expected), 1e-12);
+  EXPECT_GT((tree - expected).norm(), 0.0);  // summed in another order: really two computations
+  // The residual of the factor itself, against the matrix.
+  EXPECT_LE((matrix * tree - rhs).norm() / rhs.norm(), 1e-10);
+}
+
+TEST(TreeFactorization, ReusedAnalysisGivesTheFreshSolution) {
+  const auto matrix = split_matrix();
+  Eigen::SparseMatrix<double> scaled = 2.5 * matrix;  // same pattern, other values
+  for (int k = 0; k < scaled.outerSize(); ++k) scaled.coeffRef(k, k) += 0.01 * (k % 7);
+  const Eigen::MatrixXd rhs = random_matrix(matrix.rows(), 3, 13);
+  SparseCholesky first, reused, fresh;
+  first.factor(matrix, SolverBackend::Tree);
+  EXPECT_FALSE(first.reused_analysis());
+  reused.factor(scaled, SolverBackend::Tree, {}, first.analysis());
+  EXPECT_TRUE(reused.reused_analysis());
+  EXPECT_EQ(reused.analysis().get(), first.analysis().get());
+  fresh.factor(scaled, SolverBackend::Tree);  // the same AMD order: it depends on the pattern alone
+  EXPECT_EQ(reused.solve(rhs), fresh.solve(rhs));
+  EXPECT_LE((scaled * reused.solve(rhs) - rhs).norm() / rhs.norm(), 1e-10);
+
+  // Another pattern is analysed afresh.
+  Eigen::SparseMatrix<double> other = matrix;
+  other.coeffRef(0, matrix.rows() - 1) += 1e-3;
+  other.coeffRef(matrix.rows() - 1, 0) += 1e-3;
+  other.makeCompressed();
+  SparseCholesky not_reused;
+  not_reused.factor(other, SolverBackend::Tree, {}, first.analysis());
+  EXPECT_FALSE(not_reused.reused_analysis());
+  EXPECT_LE((other * not_reused.solve(rhs) - rhs).norm() / rhs.norm(), 1e-10);
+}
+
+TEST(TreeFactorization, AGivenOrderIsFollowed) {
+  const auto matrix = spd_matrix(make_shape(ShapeKind::Cactus, 12).mesh);
+  std::vector<int> reversed(static_cast<std::size_t>(matrix.rows()));
+  for (std::size_t i = 0; i < reversed.size(); ++i) reversed[i] = static_cast<int>(reversed.size() - i) * 3;  // any distinct ranks
+  SparseCholesky factor;
+  factor.factor(matrix, SolverBackend::Tree, reversed);
+  for (std::size_t i = 0; i < reversed.size(); ++i) EXPECT_EQ(factor.factor_row()[i], static_cast<int>(reversed.size() - 1 - i));
+  const Eigen::MatrixXd rhs = random_matrix(matrix.rows(), 2, 14);
+  EXPECT_LE(test::relative_difference(factor.solve(rhs), Eigen::MatrixXd(Eigen::MatrixXd(matrix).ldlt().solve(rhs))), 1e-10);
+  EXPECT_THROW(factor.factor(matrix, SolverBackend::Tree, std::span(reversed).first(3)), std::invalid_argument);
+}
+
+// Eliminating the free vertices in the order the whole mesh's AMD order induces fills in no more
+// than that order fills the whole Laplacian: every fill path among free vertices is one in the
+// whole mesh.
+TEST(TreeFactorization, TheInducedOrderFillsNoMoreThanTheWholeMesh) {
+  const Mesh mesh = make_shape(ShapeKind::Cactus, 32).mesh;
+  const auto laplacian = cotangent_laplacian(mesh);
+  const auto rank = elimination_ranks(laplacian);
+  SparseCholesky whole;
+  whole.factor(spd_matrix(mesh), SolverBackend::Tree, rank);
+  const auto shape = make_shape(ShapeKind::Cactus, 32);
+  const auto partition = partition_vertices(shape.mesh, cotangent_weights(shape.mesh), shape.demo_constraints);
+  const DirichletSystem induced(laplacian, partition, SolverBackend::Tree, rank);
+  const DirichletSystem own(laplacian, partition, SolverBackend::Tree);
+  EXPECT_LE(induced.factor().factor_nonzeros(), whole.factor_nonzeros());
+  // And it is about as good as an order of L_ff's own.
+  EXPECT_LE(static_cast<double>(induced.factor().factor_nonzeros()), 1.15 * static_cast<double>(own.factor().factor_nonzeros()));
+  Eigen::MatrixXd a = Eigen::MatrixXd::Zero(mesh.vertex_count(), 1), b = a;
+  for (const int v : shape.demo_constraints.handles[0]) a(v, 0) = b(v, 0) = 1.0;
+  induced.solve(a);
+  own.solve(b);
+  EXPECT_LE(test::relative_difference(a, b), 1e-12);
+  EXPECT_THROW(DirichletSystem(laplacian, partition, SolverBackend::Tree, std::span(rank).first(5)), std::invalid_argument);
 }
 
 TEST(ColumnBlocks, EverySchedulePartitionsColumnsAndGivesIdenticalBits) {

@@ -110,7 +110,7 @@ TEST(HarmonicField, EqualsADenseSolve) {
     }
   }
   const Eigen::VectorXd expected = block.ldlt().solve(rhs);
-  for (const auto backend : {SolverBackend::Eigen, SolverBackend::Cholmod}) {
+  for (const auto backend : kSolverBackends) {
     if (!backend_available(backend)) continue;
     const DirichletSystem system(c.laplacian, c.partition, backend);
     const Eigen::VectorXd h = harmonic_field(system, c.partition);

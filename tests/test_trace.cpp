@@ -59,7 +59,8 @@ TEST(Trace, ADragsEventsNestPerThreadAndTheSolveRunsOnBothThreads) {
   trace::write(dir.file("trace.json"));
   const auto events = test::read_checked_trace(dir.file("trace.json"));
   for (const std::string stage : {"cotangent weights", "mesh inspection", "vertex partition", "Laplacian", "factorization",
-                                  "analysis (ordering, elimination tree)", "numeric factorization", "harmonic field", "refinement set-up"}) {
+                                  "elimination order (AMD)",
+                                  "analysis (elimination tree, pattern of L)", "numeric factorization", "harmonic field", "refinement set-up"}) {
     EXPECT_EQ(test::named(events, stage).size(), 1u) << stage;
   }
   const auto updates = test::named(events, "update");

@@ -133,11 +133,18 @@ void EditorApp::draw_controls() {
 
   ImGui::Separator();
   ImGui::TextDisabled("Solver");
-  const char* backends[] = {"eigen", "cholmod"};
-  int backend = document_->options().backend == SolverBackend::Eigen ? 0 : 1;
-  if (ImGui::Combo("Backend", &backend, backends, backend_available(SolverBackend::Cholmod) ? 2 : 1)) {
+  std::vector<SolverBackend> backends;
+  std::vector<const char*> backend_names;
+  int backend = 0;
+  for (const auto choice : kSolverBackends) {
+    if (!backend_available(choice)) continue;
+    if (choice == document_->options().backend) backend = static_cast<int>(backends.size());
+    backends.push_back(choice);
+    backend_names.push_back(to_string(choice).data());  // the names are string literals
+  }
+  if (ImGui::Combo("Backend", &backend, backend_names.data(), static_cast<int>(backend_names.size()))) {
     DeformerOptions solver_options = document_->options();
-    solver_options.backend = backend == 0 ? SolverBackend::Eigen : SolverBackend::Cholmod;
+    solver_options.backend = backends[static_cast<std::size_t>(backend)];
     document_->set_options(solver_options);
   }
   switch (document_->solver_state()) {

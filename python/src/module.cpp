@@ -130,7 +130,7 @@ py::array index_array(const std::vector<int>& indices) {
 
 SolverBackend backend_argument(const std::string& name) {
   const auto backend = parse_backend(name);
-  if (!backend) throw py::value_error("backend must be 'eigen' or 'cholmod'; got '" + name + "'");
+  if (!backend) throw py::value_error("backend must be 'tree', 'eigen' or 'cholmod'; got '" + name + "'");
   if (!backend_available(*backend)) throw py::value_error("this build has no " + name + " backend");
   return *backend;
 }

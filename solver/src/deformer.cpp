@@ -3,6 +3,7 @@
 #include <tbb/flow_graph.h>
 #include <tbb/task_arena.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
 
 #include <algorithm>
 #include <chrono>
@@ -82,12 +83,32 @@ std::shared_ptr<const MeshOperators> MeshOperators::of(const Mesh& mesh) {
   std::optional<trace::Scope> stage;
   stage.emplace("cotangent weights", "set-up");
   operators->weights = cotangent_weights(mesh);
-  stage.emplace("mesh inspection", "set-up");
-  operators->inspection = inspect_mesh(mesh, operators->weights);
+  // The ordering needs only the Laplacian's pattern, the inspection only the weights: the two run
+  // side by side.
   stage.emplace("Laplacian", "set-up");
   operators->laplacian = cotangent_laplacian(mesh, operators->weights);
+  stage.reset();
+  tbb::parallel_invoke(
+      [&] {
+        const trace::Scope traced("mesh inspection", "set-up");
+        operators->inspection = inspect_mesh(mesh, operators->weights);
+      },
+      [&] {
+        const trace::Scope traced("elimination order (AMD)", "set-up");
+        operators->elimination_rank = elimination_ranks(operators->laplacian);
+      });
   operators->ms = milliseconds_since(start);
   return operators;
+}
+
+std::shared_ptr<const SparseCholesky::Analysis> MeshOperators::last_analysis() const {
+  const std::lock_guard lock(analysis_mutex_);
+  return last_analysis_;
+}
+
+void MeshOperators::keep_analysis(std::shared_ptr<const SparseCholesky::Analysis> analysis) const {
+  const std::lock_guard lock(analysis_mutex_);
+  last_analysis_ = std::move(analysis);
 }
 
 Deformer::Deformer(Mesh rest, EditConstraints constraints, DeformerOptions options, const ProgressCallback& progress)
@@ -129,7 +150,9 @@ Deformer::Deformer(Mesh rest, EditConstraints constraints, std::shared_ptr<const
   stage.emplace("factorization", "set-up");
   report("factoring " + std::to_string(partition_.free_vertices.size()) + " unknowns (" +
          std::string(to_string(options_.backend)) + ")");
-  system_ = std::make_unique<DirichletSystem>(laplacian, partition_, options_.backend);
+  system_ = std::make_unique<DirichletSystem>(laplacian, partition_, options_.backend, operators_->elimination_rank,
+                                              operators_->last_analysis());
+  if (auto analysis = system_->factor().analysis()) operators_->keep_analysis(std::move(analysis));
   timings_.factor_ms = system_->factor_ms();
 
   stage.emplace("harmonic field", "set-up");

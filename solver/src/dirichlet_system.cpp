@@ -3,12 +3,14 @@
 #include <tbb/parallel_for.h>
 
 #include <chrono>
+#include <stdexcept>
 #include "hdeform/stopwatch.h"
 
 namespace hdeform {
 
 DirichletSystem::DirichletSystem(const Eigen::SparseMatrix<double>& laplacian, const VertexPartition& partition,
-                                 SolverBackend backend) {
+                                 SolverBackend backend, std::span<const int> vertex_rank,
+                                 const std::shared_ptr<const SparseCholesky::Analysis>& reuse) {
   const auto n = static_cast<std::size_t>(laplacian.rows());
   const auto& free = partition.free_vertices;
   std::vector<int> free_index(n, -1);
@@ -31,7 +33,13 @@ DirichletSystem::DirichletSystem(const Eigen::SparseMatrix<double>& laplacian, c
     free_block.makeCompressed();
   }
   const auto factor_start = std::chrono::steady_clock::now();
-  factor_.factor(free_block, backend);
+  std::vector<int> free_rank;
+  if (!vertex_rank.empty()) {
+    if (vertex_rank.size() != n) throw std::invalid_argument("DirichletSystem: the elimination order is of another mesh");
+    free_rank.resize(free.size());
+    for (std::size_t k = 0; k < free.size(); ++k) free_rank[k] = vertex_rank[static_cast<std::size_t>(free[k])];
+  }
+  factor_.factor(free_block, backend, free_rank, reuse);
   factor_ms_ = milliseconds_since(factor_start);
 
   row_of_vertex_.assign(n, -1);

@@ -4,6 +4,8 @@
 #include <array>
 #include <cstdint>
 
+#include <tbb/parallel_invoke.h>
+
 #include "disjoint_sets.h"
 
 namespace hdeform {
@@ -30,21 +32,19 @@ std::vector<std::string> MeshInspection::warnings() const {
   return lines;
 }
 
-MeshInspection inspect_mesh(const Mesh& mesh, const CotangentWeights& weights) {
-  MeshInspection inspection;
-  inspection.degenerate_triangles = weights.count(ElementKind::Degenerate);
-  inspection.ignored_triangles = weights.count(ElementKind::Ignored);
+namespace {
 
-  const auto n = static_cast<std::size_t>(mesh.vertex_count());
+// Boundary and non-manifold edges (by how many triangles hold each edge), connected components
+// and unreferenced vertices.
+void count_edges_and_components(const Mesh& mesh, const std::vector<bool>& referenced, MeshInspection& inspection) {
+  const auto n = referenced.size();
   std::vector<std::uint64_t> edges;
   edges.reserve(static_cast<std::size_t>(mesh.triangle_count()) * 3);
   detail::DisjointSets components(n);
-  std::vector<bool> referenced(n, false);
   for (Eigen::Index t = 0; t < mesh.triangle_count(); ++t) {
     for (int k = 0; k < 3; ++k) {
       const auto a = static_cast<std::uint32_t>(mesh.triangles(t, k));
       const auto b = static_cast<std::uint32_t>(mesh.triangles(t, (k + 1) % 3));
-      referenced[a] = true;
       if (a == b) continue;
       edges.push_back((static_cast<std::uint64_t>(std::min(a, b)) << 32) | std::max(a, b));
       components.unite(static_cast<int>(a), static_cast<int>(b));
@@ -62,52 +62,83 @@ MeshInspection inspect_mesh(const Mesh& mesh, const CotangentWeights& weights) {
     if (!referenced[v]) ++inspection.unreferenced_vertices;
     else if (components.find(static_cast<int>(v)) == static_cast<int>(v)) ++inspection.components;
   }
+}
 
-  // A vertex is manifold when the triangles around it form one fan: in its link (the opposite
-  // edges of its triangles) every neighbour is reachable from every other.
-  struct Corner {
-    int vertex, a, b;
+// A vertex is manifold when the triangles around it form one fan: in its link (the opposite
+// edges of its triangles) every neighbour is reachable from every other.
+std::size_t count_nonmanifold_vertices(const Mesh& mesh) {
+  struct Link {
+    int a, b;  // the edge of a triangle opposite the vertex
   };
-  std::vector<Corner> corners;
-  corners.reserve(static_cast<std::size_t>(mesh.triangle_count()) * 3);
+  // The links of each vertex together, by a counting sort on the vertex.
+  const auto n = static_cast<std::size_t>(mesh.vertex_count());
+  std::vector<std::size_t> start(n + 1, 0);
   for (Eigen::Index t = 0; t < mesh.triangle_count(); ++t) {
     const int i = mesh.triangles(t, 0), j = mesh.triangles(t, 1), k = mesh.triangles(t, 2);
     if (i == j || j == k || k == i) continue;
-    corners.push_back({i, j, k});
-    corners.push_back({j, k, i});
-    corners.push_back({k, i, j});
+    for (const int v : {i, j, k}) ++start[static_cast<std::size_t>(v) + 1];
   }
-  std::sort(corners.begin(), corners.end(), [](const Corner& x, const Corner& y) { return x.vertex < y.vertex; });
+  for (std::size_t v = 0; v < n; ++v) start[v + 1] += start[v];
+  std::vector<Link> links(start[n]);
+  std::vector<std::size_t> next(start.begin(), start.end() - 1);
+  for (Eigen::Index t = 0; t < mesh.triangle_count(); ++t) {
+    const int i = mesh.triangles(t, 0), j = mesh.triangles(t, 1), k = mesh.triangles(t, 2);
+    if (i == j || j == k || k == i) continue;
+    links[next[static_cast<std::size_t>(i)]++] = {j, k};
+    links[next[static_cast<std::size_t>(j)]++] = {k, i};
+    links[next[static_cast<std::size_t>(k)]++] = {i, j};
+  }
+  std::size_t nonmanifold = 0;
   std::vector<int> neighbours;
-  for (std::size_t first = 0; first < corners.size();) {
-    std::size_t last = first;
+  for (std::size_t v = 0; v < n; ++v) {
+    if (start[v] == start[v + 1]) continue;
     neighbours.clear();
-    while (last < corners.size() && corners[last].vertex == corners[first].vertex) {
-      neighbours.push_back(corners[last].a);
-      neighbours.push_back(corners[last].b);
-      ++last;
+    for (std::size_t c = start[v]; c < start[v + 1]; ++c) {
+      neighbours.push_back(links[c].a);
+      neighbours.push_back(links[c].b);
     }
     std::sort(neighbours.begin(), neighbours.end());
     neighbours.erase(std::unique(neighbours.begin(), neighbours.end()), neighbours.end());
     detail::DisjointSets link(neighbours.size());
     const auto local = [&](int vertex) { return static_cast<int>(std::lower_bound(neighbours.begin(), neighbours.end(), vertex) - neighbours.begin()); };
-    for (std::size_t c = first; c < last; ++c) link.unite(local(corners[c].a), local(corners[c].b));
+    for (std::size_t c = start[v]; c < start[v + 1]; ++c) link.unite(local(links[c].a), local(links[c].b));
     std::size_t fans = 0;
     for (std::size_t k = 0; k < neighbours.size(); ++k) fans += link.find(static_cast<int>(k)) == static_cast<int>(k) ? 1 : 0;
-    if (fans > 1) ++inspection.nonmanifold_vertices;
-    first = last;
+    if (fans > 1) ++nonmanifold;
   }
+  return nonmanifold;
+}
 
-  // Vertices at exactly the same position (each one after the first counts).
+// Referenced vertices at exactly the same position as another (each one after the first counts).
+std::size_t count_duplicated_vertices(const Mesh& mesh, const std::vector<bool>& referenced) {
   std::vector<int> order;
-  for (std::size_t v = 0; v < n; ++v) {
+  for (std::size_t v = 0; v < referenced.size(); ++v) {
     if (referenced[v]) order.push_back(static_cast<int>(v));
   }
   const auto position = [&](int v) { return std::array<double, 3>{mesh.positions(v, 0), mesh.positions(v, 1), mesh.positions(v, 2)}; };
   std::sort(order.begin(), order.end(), [&](int x, int y) { return position(x) < position(y); });
+  std::size_t duplicated = 0;
   for (std::size_t k = 1; k < order.size(); ++k) {
-    if (position(order[k]) == position(order[k - 1])) ++inspection.duplicated_vertices;
+    if (position(order[k]) == position(order[k - 1])) ++duplicated;
   }
+  return duplicated;
+}
+
+}  // namespace
+
+MeshInspection inspect_mesh(const Mesh& mesh, const CotangentWeights& weights) {
+  MeshInspection inspection;
+  inspection.degenerate_triangles = weights.count(ElementKind::Degenerate);
+  inspection.ignored_triangles = weights.count(ElementKind::Ignored);
+  const auto n = static_cast<std::size_t>(mesh.vertex_count());
+  std::vector<bool> referenced(n, false);
+  for (Eigen::Index t = 0; t < mesh.triangle_count(); ++t) {
+    for (int k = 0; k < 3; ++k) referenced[static_cast<std::size_t>(mesh.triangles(t, k))] = true;
+  }
+  // Three independent checks, side by side.
+  tbb::parallel_invoke([&] { count_edges_and_components(mesh, referenced, inspection); },
+                       [&] { inspection.nonmanifold_vertices = count_nonmanifold_vertices(mesh); },
+                       [&] { inspection.duplicated_vertices = count_duplicated_vertices(mesh, referenced); });
   return inspection;
 }
 

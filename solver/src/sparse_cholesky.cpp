@@ -1,5 +1,6 @@
 #include "hdeform/sparse_cholesky.h"
 
+#include <Eigen/OrderingMethods>
 #include <Eigen/SparseCholesky>
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
@@ -11,6 +12,7 @@
 
 #include "hdeform/errors.h"
 #include "hdeform/trace.h"
+#include "tree_factorization.h"
 
 #ifdef HDEFORM_WITH_CHOLMOD
 #include <Eigen/CholmodSupport>
@@ -54,10 +56,7 @@ inline void gather_products(const int* inner, const double* value, int begin, in
 // Forward sweep L y = b over `columns` (ascending), K interleaved right-hand sides: a gather
 // along row j of L, read as column j of Lᵀ (diagonal last).
 template <int K>
-void forward_sweep(const Eigen::SparseMatrix<double>& upper, std::span<const int> columns, double* y, int stride) {
-  const int* outer = upper.outerIndexPtr();
-  const int* inner = upper.innerIndexPtr();
-  const double* value = upper.valuePtr();
+void forward_sweep(const int* outer, const int* inner, const double* value, std::span<const int> columns, double* y, int stride) {
   for (const int j : columns) {
     double* yj = y + static_cast<std::ptrdiff_t>(j) * stride;
     const int diagonal = outer[j + 1] - 1;
@@ -85,7 +84,7 @@ void backward_sweep(const std::size_t* begin, const std::size_t* end, const int*
 }
 
 struct Sweeps {
-  void (*forward)(const Eigen::SparseMatrix<double>&, std::span<const int>, double*, int);
+  void (*forward)(const int*, const int*, const double*, std::span<const int>, double*, int);
   void (*backward)(const std::size_t*, const std::size_t*, const int*, const double*, std::span<const int>, double*, int);
 };
 template <int K>
@@ -168,11 +167,19 @@ void factor_with_cholmod(const Eigen::SparseMatrix<double>& matrix, Eigen::Spars
 
 }  // namespace
 
-std::string_view to_string(SolverBackend backend) { return backend == SolverBackend::Eigen ? "eigen" : "cholmod"; }
+std::string_view to_string(SolverBackend backend) {
+  switch (backend) {
+    case SolverBackend::Tree: return "tree";
+    case SolverBackend::Eigen: return "eigen";
+    case SolverBackend::Cholmod: return "cholmod";
+  }
+  return "?";
+}
 
 std::optional<SolverBackend> parse_backend(std::string_view name) {
-  if (name == "eigen") return SolverBackend::Eigen;
-  if (name == "cholmod") return SolverBackend::Cholmod;
+  for (const auto backend : kSolverBackends) {
+    if (name == to_string(backend)) return backend;
+  }
   return std::nullopt;
 }
 
@@ -181,196 +188,221 @@ bool backend_available(SolverBackend backend) {
   (void)backend;
   return true;
 #else
-  return backend == SolverBackend::Eigen;
+  return backend != SolverBackend::Cholmod;
 #endif
 }
 
-SolverBackend default_backend() { return SolverBackend::Eigen; }
+SolverBackend default_backend() { return SolverBackend::Tree; }
 
-// The columns of L stored last to first, so that the backward sweep (j descending) streams
-// through memory forwards: read backwards, it runs at half the speed.
-struct ReversedColumns {
-  std::vector<std::size_t> begin;  // column j: [begin[j], end[j]), diagonal first
-  std::vector<std::size_t> end;
-  std::vector<int> row;
-  std::vector<double> value;
+struct SparseCholesky::Analysis {
+  std::vector<int> factor_row;
+  // The pattern analysed (compressed outer and inner indices), to recognise it again; empty
+  // when the analysis came from another backend's factor and cannot be reused.
+  std::vector<int> matrix_outer;
+  std::vector<int> matrix_inner;
+  detail::FactorPattern pattern;
+
+  bool analysed(const Eigen::SparseMatrix<double>& matrix) const {
+    if (matrix_outer.empty() || !matrix.isCompressed() || matrix.rows() + 1 != static_cast<Eigen::Index>(matrix_outer.size())) return false;
+    return std::equal(matrix_outer.begin(), matrix_outer.end(), matrix.outerIndexPtr()) &&
+           matrix.nonZeros() == static_cast<Eigen::Index>(matrix_inner.size()) &&
+           std::equal(matrix_inner.begin(), matrix_inner.end(), matrix.innerIndexPtr());
+  }
 };
 
 struct SparseCholesky::Factor {
-  void adopt(const Eigen::SparseMatrix<double>& lower);
-  void split_elimination_tree(const Eigen::SparseMatrix<double>& lower);
-
-  Eigen::SparseMatrix<double> upper;  // Lᵀ in CSC: the rows of L, diagonal last; forward sweep
-  ReversedColumns columns;            // L; backward sweep
-  std::vector<int> factor_row;
-  std::vector<std::vector<int>> subtrees;
-  std::vector<int> top;
+  std::shared_ptr<const Analysis> analysis = std::make_shared<Analysis>();
+  std::vector<double> row_value;     // L by rows (analysis->pattern.row_start/row_column); forward sweep
+  std::vector<double> column_value;  // L by stored columns (pattern.column_begin/end/row); backward sweep
+  bool reused_analysis = false;
 };
+
+namespace {
+
+// Another backend's L (CSC, diagonal first) in the layouts the sweeps read.
+void adopt(const Eigen::SparseMatrix<double>& lower, std::vector<int> factor_row, SparseCholesky::Factor& factor) {
+  auto analysis = std::make_shared<SparseCholesky::Analysis>();
+  analysis->factor_row = std::move(factor_row);
+  detail::FactorPattern& pattern = analysis->pattern;
+  const Eigen::SparseMatrix<double> upper = lower.transpose();
+  const auto n = static_cast<std::size_t>(lower.cols());
+  const auto nonzeros = static_cast<std::size_t>(lower.nonZeros());
+  pattern.row_start.assign(upper.outerIndexPtr(), upper.outerIndexPtr() + n + 1);
+  pattern.row_column.assign(upper.innerIndexPtr(), upper.innerIndexPtr() + nonzeros);
+  factor.row_value.assign(upper.valuePtr(), upper.valuePtr() + nonzeros);
+  pattern.column_begin.resize(n);
+  pattern.column_end.resize(n);
+  pattern.column_row.resize(nonzeros);
+  factor.column_value.resize(nonzeros);
+  pattern.parent.assign(n, -1);
+  std::vector<double> work(n);
+  const int* outer = lower.outerIndexPtr();
+  std::size_t next = 0;
+  for (std::size_t j = n; j-- > 0;) {
+    pattern.column_begin[j] = next;
+    for (int p = outer[j]; p < outer[j + 1]; ++p, ++next) {
+      pattern.column_row[next] = lower.innerIndexPtr()[p];
+      factor.column_value[next] = lower.valuePtr()[p];
+    }
+    pattern.column_end[j] = next;
+    work[j] = outer[j + 1] - outer[j];
+    // The parent of column j is the first row below the diagonal.
+    if (outer[j + 1] - outer[j] > 1) pattern.parent[j] = lower.innerIndexPtr()[outer[j] + 1];
+  }
+  pattern.schedule = detail::split_elimination_tree(pattern.parent, work, tbb::this_task_arena::max_concurrency());
+  factor.analysis = std::move(analysis);
+}
+
+// factor_row from ranks: unknowns in ascending rank, ties by index.
+std::vector<int> rows_of_ranks(std::span<const int> rank) {
+  std::vector<int> order(rank.size());
+  std::iota(order.begin(), order.end(), 0);
+  std::sort(order.begin(), order.end(), [&](int a, int b) {
+    const auto ra = rank[static_cast<std::size_t>(a)], rb = rank[static_cast<std::size_t>(b)];
+    return ra != rb ? ra < rb : a < b;
+  });
+  std::vector<int> factor_row(rank.size());
+  for (std::size_t k = 0; k < order.size(); ++k) factor_row[static_cast<std::size_t>(order[k])] = static_cast<int>(k);
+  return factor_row;
+}
+
+void factor_with_tree(const Eigen::SparseMatrix<double>& matrix, std::span<const int> ordering,
+                      const std::shared_ptr<const SparseCholesky::Analysis>& reuse, SparseCholesky::Factor& factor) {
+  std::shared_ptr<const SparseCholesky::Analysis> analysis;
+  detail::PermutedUpper upper;
+  if (reuse && reuse->analysed(matrix)) {
+    const trace::Scope traced("permuted matrix (analysis reused)", "set-up");
+    analysis = reuse;
+    upper = detail::permuted_upper(matrix, analysis->factor_row);
+    factor.reused_analysis = true;
+  } else {
+    auto fresh = std::make_shared<SparseCholesky::Analysis>();
+    if (ordering.empty()) {
+      const trace::Scope traced("elimination order (AMD)", "set-up");
+      fresh->factor_row = elimination_ranks(matrix);
+    }
+    const trace::Scope traced("analysis (elimination tree, pattern of L)", "set-up");
+    if (!ordering.empty()) fresh->factor_row = rows_of_ranks(ordering);
+    Eigen::SparseMatrix<double> compressed;
+    const Eigen::SparseMatrix<double>* pattern_of = &matrix;
+    if (!matrix.isCompressed()) {
+      compressed = matrix;
+      compressed.makeCompressed();
+      pattern_of = &compressed;
+    }
+    fresh->matrix_outer.assign(pattern_of->outerIndexPtr(), pattern_of->outerIndexPtr() + matrix.cols() + 1);
+    fresh->matrix_inner.assign(pattern_of->innerIndexPtr(), pattern_of->innerIndexPtr() + pattern_of->nonZeros());
+    upper = detail::permuted_upper(matrix, fresh->factor_row);
+    fresh->pattern = detail::analyse_pattern(upper, tbb::this_task_arena::max_concurrency());
+    analysis = std::move(fresh);
+  }
+  {
+    const trace::Scope traced("numeric factorization", "set-up");
+    if (!detail::factor_numeric(upper, analysis->pattern, factor.row_value, factor.column_value)) {
+      throw SolveError("the Laplacian system is not positive definite (the elimination-tree factorization failed)");
+    }
+  }
+  factor.analysis = std::move(analysis);
+}
+
+}  // namespace
+
+std::vector<int> elimination_ranks(const Eigen::SparseMatrix<double>& matrix) {
+  Eigen::AMDOrdering<int> ordering;
+  Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> elimination_order;
+  ordering(matrix, elimination_order);  // step k eliminates unknown elimination_order[k]
+  std::vector<int> rank(static_cast<std::size_t>(matrix.rows()));
+  for (Eigen::Index k = 0; k < matrix.rows(); ++k) rank[static_cast<std::size_t>(elimination_order.indices()[k])] = static_cast<int>(k);
+  return rank;
+}
 
 SparseCholesky::SparseCholesky() : factor_(std::make_unique<Factor>()) {}
 SparseCholesky::~SparseCholesky() = default;
 SparseCholesky::SparseCholesky(SparseCholesky&&) noexcept = default;
 SparseCholesky& SparseCholesky::operator=(SparseCholesky&&) noexcept = default;
 
-Eigen::Index SparseCholesky::size() const { return factor_ ? factor_->upper.rows() : 0; }
-Eigen::Index SparseCholesky::factor_nonzeros() const { return factor_->upper.nonZeros(); }
-const std::vector<int>& SparseCholesky::factor_row() const { return factor_->factor_row; }
-std::size_t SparseCholesky::subtree_count() const { return factor_->subtrees.size(); }
+Eigen::Index SparseCholesky::size() const { return factor_ ? factor_->analysis->pattern.size() : 0; }
+Eigen::Index SparseCholesky::factor_nonzeros() const { return static_cast<Eigen::Index>(factor_->analysis->pattern.nonzeros()); }
+const std::vector<int>& SparseCholesky::factor_row() const { return factor_->analysis->factor_row; }
+std::size_t SparseCholesky::subtree_count() const { return factor_->analysis->pattern.schedule.subtrees.size(); }
+std::shared_ptr<const SparseCholesky::Analysis> SparseCholesky::analysis() const {
+  return factor_->analysis->matrix_outer.empty() ? nullptr : factor_->analysis;
+}
+bool SparseCholesky::reused_analysis() const { return factor_->reused_analysis; }
 
-void SparseCholesky::factor(const Eigen::SparseMatrix<double>& matrix, SolverBackend backend) {
+void SparseCholesky::factor(const Eigen::SparseMatrix<double>& matrix, SolverBackend backend, std::span<const int> ordering,
+                            const std::shared_ptr<const Analysis>& reuse) {
   if (matrix.rows() != matrix.cols()) throw SolveError("cannot factor a non-square matrix");
   if (!backend_available(backend)) throw SolveError("this build has no " + std::string(to_string(backend)) + " backend");
+  if (!ordering.empty() && ordering.size() != static_cast<std::size_t>(matrix.rows())) {
+    throw std::invalid_argument("SparseCholesky::factor: the ordering has " + std::to_string(ordering.size()) + " ranks for " +
+                                std::to_string(matrix.rows()) + " unknowns");
+  }
   backend_ = backend;
   factor_ = std::make_unique<Factor>();
-  Eigen::SparseMatrix<double> lower(0, 0);
+  if (matrix.rows() == 0) return;
   try {
-    if (matrix.rows() > 0) {
-#ifdef HDEFORM_WITH_CHOLMOD
-      if (backend == SolverBackend::Cholmod) factor_with_cholmod(matrix, lower, factor_->factor_row);
-      else factor_with_eigen(matrix, lower, factor_->factor_row);
-#else
-      factor_with_eigen(matrix, lower, factor_->factor_row);
-#endif
+    if (backend == SolverBackend::Tree) {
+      factor_with_tree(matrix, ordering, reuse, *factor_);
+      return;
     }
-    factor_->adopt(lower);
+    Eigen::SparseMatrix<double> lower(0, 0);
+    std::vector<int> factor_row;
+#ifdef HDEFORM_WITH_CHOLMOD
+    if (backend == SolverBackend::Cholmod) factor_with_cholmod(matrix, lower, factor_row);
+    else factor_with_eigen(matrix, lower, factor_row);
+#else
+    factor_with_eigen(matrix, lower, factor_row);
+#endif
+    const trace::Scope traced("factor layouts", "set-up");
+    adopt(lower, std::move(factor_row), *factor_);
   } catch (const std::bad_alloc&) {
     throw SolveError("out of memory while factoring a " + std::to_string(matrix.rows()) + "-unknown system");
   }
 }
 
-void SparseCholesky::Factor::adopt(const Eigen::SparseMatrix<double>& lower) {
-  upper = lower.transpose();
-  const auto n = static_cast<std::size_t>(lower.cols());
-  columns.begin.resize(n);
-  columns.end.resize(n);
-  columns.row.resize(static_cast<std::size_t>(lower.nonZeros()));
-  columns.value.resize(static_cast<std::size_t>(lower.nonZeros()));
-  std::size_t next = 0;
-  for (std::size_t j = n; j-- > 0;) {
-    columns.begin[j] = next;
-    for (int p = lower.outerIndexPtr()[j]; p < lower.outerIndexPtr()[j + 1]; ++p, ++next) {
-      columns.row[next] = lower.innerIndexPtr()[p];
-      columns.value[next] = lower.valuePtr()[p];
-    }
-    columns.end[j] = next;
-  }
-  split_elimination_tree(lower);
-}
-
-void SparseCholesky::Factor::split_elimination_tree(const Eigen::SparseMatrix<double>& lower) {
-  subtrees.clear();
-  top.clear();
-  const int n = static_cast<int>(lower.cols());
-  const int parts = tbb::this_task_arena::max_concurrency();
-  const int* outer = lower.outerIndexPtr();
-  const int* inner = lower.innerIndexPtr();
-  if (parts <= 1 || n < 1024) {
-    top.resize(static_cast<std::size_t>(n));
-    std::iota(top.begin(), top.end(), 0);
-    return;
-  }
-  // Elimination tree: the parent of column j is the first row below the diagonal in column j.
-  std::vector<int> parent(static_cast<std::size_t>(n), -1);
-  std::vector<double> subtree_work(static_cast<std::size_t>(n));
-  std::vector<int> child_start(static_cast<std::size_t>(n) + 1, 0);
-  for (int j = 0; j < n; ++j) {
-    subtree_work[static_cast<std::size_t>(j)] += outer[j + 1] - outer[j];
-    if (outer[j + 1] - outer[j] > 1) {
-      const int p = inner[outer[j] + 1];
-      parent[static_cast<std::size_t>(j)] = p;
-      subtree_work[static_cast<std::size_t>(p)] += subtree_work[static_cast<std::size_t>(j)];
-      ++child_start[static_cast<std::size_t>(p) + 1];
-    }
-  }
-  for (int j = 0; j < n; ++j) child_start[static_cast<std::size_t>(j) + 1] += child_start[static_cast<std::size_t>(j)];
-  std::vector<int> children(static_cast<std::size_t>(child_start.back()));
-  {
-    std::vector<int> fill(child_start.begin(), child_start.end() - 1);
-    for (int j = 0; j < n; ++j) {
-      if (parent[static_cast<std::size_t>(j)] >= 0) children[static_cast<std::size_t>(fill[static_cast<std::size_t>(parent[static_cast<std::size_t>(j)])]++)] = j;
-    }
-  }
-
-  // Proportional splitting: take the largest subtree's root into the top part until every
-  // subtree is small enough for an even packing onto the workers.
-  const double total = static_cast<double>(lower.nonZeros());
-  const double grain = total / (16.0 * parts);
-  const double top_limit = 0.25 * total;
-  std::vector<std::pair<double, int>> heap;
-  for (int j = 0; j < n; ++j) {
-    if (parent[static_cast<std::size_t>(j)] < 0) heap.emplace_back(subtree_work[static_cast<std::size_t>(j)], j);
-  }
-  std::make_heap(heap.begin(), heap.end());
-  double top_work = 0.0;
-  while (!heap.empty() && heap.front().first > grain && top_work < top_limit) {
-    std::pop_heap(heap.begin(), heap.end());
-    const int root = heap.back().second;
-    heap.pop_back();
-    top.push_back(root);
-    top_work += outer[root + 1] - outer[root];
-    for (int c = child_start[static_cast<std::size_t>(root)]; c < child_start[static_cast<std::size_t>(root) + 1]; ++c) {
-      const int child = children[static_cast<std::size_t>(c)];
-      heap.emplace_back(subtree_work[static_cast<std::size_t>(child)], child);
-      std::push_heap(heap.begin(), heap.end());
-    }
-  }
-  // Largest first onto the least loaded worker; ties by root index keep it deterministic.
-  std::sort(heap.begin(), heap.end(), [](const auto& a, const auto& b) { return a.first != b.first ? a.first > b.first : a.second < b.second; });
-  subtrees.assign(static_cast<std::size_t>(parts), {});
-  std::vector<double> load(static_cast<std::size_t>(parts), 0.0);
-  std::vector<int> stack;
-  for (const auto& [work, root] : heap) {
-    const auto worker = static_cast<std::size_t>(std::min_element(load.begin(), load.end()) - load.begin());
-    load[worker] += work;
-    stack.assign(1, root);
-    while (!stack.empty()) {
-      const int node = stack.back();
-      stack.pop_back();
-      subtrees[worker].push_back(node);
-      for (int c = child_start[static_cast<std::size_t>(node)]; c < child_start[static_cast<std::size_t>(node) + 1]; ++c) {
-        stack.push_back(children[static_cast<std::size_t>(c)]);
-      }
-    }
-  }
-  for (auto& subtree : subtrees) std::sort(subtree.begin(), subtree.end());
-  std::sort(top.begin(), top.end());
-}
-
 double SparseCholesky::top_fraction() const {
-  const Factor& f = *factor_;
-  if (f.upper.nonZeros() == 0) return 0.0;
+  const auto& pattern = factor_->analysis->pattern;
+  if (pattern.nonzeros() == 0) return 0.0;
   double top = 0.0;
-  for (const int j : f.top) top += static_cast<double>(f.columns.end[static_cast<std::size_t>(j)] - f.columns.begin[static_cast<std::size_t>(j)]);
-  return top / static_cast<double>(f.upper.nonZeros());
+  for (const int j : pattern.schedule.top) {
+    top += static_cast<double>(pattern.column_end[static_cast<std::size_t>(j)] - pattern.column_begin[static_cast<std::size_t>(j)]);
+  }
+  return top / static_cast<double>(pattern.nonzeros());
 }
 
 void SparseCholesky::solve_block(double* block, int columns, int stride) const {
   const Factor& f = *factor_;
+  const detail::FactorPattern& pattern = f.analysis->pattern;
+  const auto& subtrees = pattern.schedule.subtrees;
   for (int first = 0; first < columns; first += kMaxKernelColumns) {
     const Sweeps& sweeps = kSweeps[std::min(kMaxKernelColumns, columns - first) - 1];
     double* y = block + first;
     // Each sweep of each part is an event of the trace, on the thread that ran it.
     auto each_subtree = [&](const char* name, auto&& sweep) {
-      if (f.subtrees.empty()) return;
+      if (subtrees.empty()) return;
       tbb::parallel_for(
-          std::size_t{0}, f.subtrees.size(),
+          std::size_t{0}, subtrees.size(),
           [&](std::size_t part) {
             const trace::Scope traced(name, "solve", static_cast<std::int64_t>(part));
-            sweep(f.subtrees[part]);
+            sweep(subtrees[part]);
           },
           tbb::static_partitioner());
     };
-    auto backward = [&](std::span<const int> part) {
-      const auto& l = f.columns;
-      sweeps.backward(l.begin.data(), l.end.data(), l.row.data(), l.value.data(), part, y, stride);
+    auto forward = [&](std::span<const int> part) {
+      sweeps.forward(pattern.row_start.data(), pattern.row_column.data(), f.row_value.data(), part, y, stride);
     };
-    each_subtree("forward sweep, subtree", [&](const std::vector<int>& part) { sweeps.forward(f.upper, part, y, stride); });
+    auto backward = [&](std::span<const int> part) {
+      sweeps.backward(pattern.column_begin.data(), pattern.column_end.data(), pattern.column_row.data(), f.column_value.data(), part, y,
+                      stride);
+    };
+    each_subtree("forward sweep, subtree", forward);
     {
       const trace::Scope traced("forward and backward sweeps, top", "solve");
-      sweeps.forward(f.upper, f.top, y, stride);
-      backward(f.top);
+      forward(pattern.schedule.top);
+      backward(pattern.schedule.top);
     }
-    each_subtree("backward sweep, subtree", [&](const std::vector<int>& part) { backward(part); });
+    each_subtree("backward sweep, subtree", backward);
   }
 }
 
@@ -378,10 +410,10 @@ Eigen::MatrixXd SparseCholesky::solve(const Eigen::MatrixXd& rhs) const {
   const auto n = size();
   const int columns = static_cast<int>(rhs.cols());
   Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> block(n, columns);
-  for (Eigen::Index i = 0; i < n; ++i) block.row(factor_->factor_row[static_cast<std::size_t>(i)]) = rhs.row(i);
+  for (Eigen::Index i = 0; i < n; ++i) block.row(factor_row()[static_cast<std::size_t>(i)]) = rhs.row(i);
   solve_block(block.data(), columns, columns);
   Eigen::MatrixXd solution(n, columns);
-  for (Eigen::Index i = 0; i < n; ++i) solution.row(i) = block.row(factor_->factor_row[static_cast<std::size_t>(i)]);
+  for (Eigen::Index i = 0; i < n; ++i) solution.row(i) = block.row(factor_row()[static_cast<std::size_t>(i)]);
   return solution;
 }
 

@@ -6,6 +6,7 @@
 #include <Eigen/Core>
 #include <functional>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <span>
 #include <string>
@@ -58,17 +59,32 @@ struct DeformerTimings {  // set-up, milliseconds
   double field_ms = 0.0;   // harmonic field solve
 };
 
-// What depends on the rest mesh alone: cotangent weights, the inspection and the Laplacian
-// (about 40% of a set-up). A Deformer for a new selection on the same mesh takes them from the
-// last one (Deformer::operators()) instead of computing them again.
+// What depends on the rest mesh alone: cotangent weights, the inspection, the Laplacian and a
+// fill-reducing elimination order of its pattern (about half of a set-up). A Deformer for a new
+// selection on the same mesh takes them from the last one (Deformer::operators()) instead of
+// computing them again.
 struct MeshOperators {
   CotangentWeights weights;
   MeshInspection inspection;
   Eigen::SparseMatrix<double> laplacian;
+  // elimination_rank[v]: vertex v's place in an AMD order of the whole Laplacian. Eliminating the
+  // free vertices in the order it induces fills in no more than that order fills the whole
+  // matrix (a fill path among free vertices is one in the whole mesh), so every selection's
+  // L_ff is factored without an ordering of its own.
+  std::vector<int> elimination_rank;
   double ms = 0.0;  // what computing them took
 
   // Runs validate_mesh.
   static std::shared_ptr<const MeshOperators> of(const Mesh& mesh);
+
+  // The analysis of the last L_ff factored with these operators, for the next set-up whose free
+  // vertices are the same (thread-safe).
+  std::shared_ptr<const SparseCholesky::Analysis> last_analysis() const;
+  void keep_analysis(std::shared_ptr<const SparseCholesky::Analysis> analysis) const;
+
+ private:
+  mutable std::mutex analysis_mutex_;
+  mutable std::shared_ptr<const SparseCholesky::Analysis> last_analysis_;
 };
 
 // Called from the constructing thread before each set-up stage, with a line for the user.

@@ -6,6 +6,7 @@
 // fields, quaternion components, coordinates) costs back-substitution only.
 #include <Eigen/Core>
 #include <Eigen/SparseCore>
+#include <memory>
 #include <span>
 #include <vector>
 
@@ -21,8 +22,12 @@ class DirichletSystem {
     double weight;  // L_fc entry
   };
 
-  // Throws SolveError when the factorization fails.
-  DirichletSystem(const Eigen::SparseMatrix<double>& laplacian, const VertexPartition& partition, SolverBackend backend);
+  // Throws SolveError when the factorization fails. `vertex_rank` (optional) is an elimination
+  // order of the whole Laplacian (elimination_ranks); the free vertices are eliminated in the
+  // order it induces. `reuse`: an earlier system's factor().analysis(), taken when L_ff has the
+  // pattern it was made for (see SparseCholesky::factor).
+  DirichletSystem(const Eigen::SparseMatrix<double>& laplacian, const VertexPartition& partition, SolverBackend backend,
+                  std::span<const int> vertex_rank = {}, const std::shared_ptr<const SparseCholesky::Analysis>& reuse = nullptr);
 
   const SparseCholesky& factor() const { return factor_; }
   // Time spent analysing and factoring L_ff, milliseconds.

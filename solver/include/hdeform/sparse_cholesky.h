@@ -14,21 +14,28 @@
 #include <Eigen/SparseCore>
 #include <memory>
 #include <optional>
+#include <span>
 #include <string_view>
 #include <vector>
 
 namespace hdeform {
 
 enum class SolverBackend {
+  Tree,     // ours: AMD (or a given) ordering, rows of L computed in parallel over elimination subtrees
   Eigen,    // Eigen SimplicialLLT with AMD ordering
   Cholmod,  // CHOLMOD supernodal LLT through Eigen's CholmodSupport
 };
+inline constexpr SolverBackend kSolverBackends[] = {SolverBackend::Tree, SolverBackend::Eigen, SolverBackend::Cholmod};
 
 std::string_view to_string(SolverBackend backend);
 std::optional<SolverBackend> parse_backend(std::string_view name);
 bool backend_available(SolverBackend backend);
 // The backend measured faster on buddha-206k (see README, Performance).
 SolverBackend default_backend();
+
+// An approximate-minimum-degree elimination order of a symmetric matrix's pattern (both
+// triangles stored): rank[i] is the step that eliminates unknown i.
+std::vector<int> elimination_ranks(const Eigen::SparseMatrix<double>& matrix);
 
 class SparseCholesky {
  public:
@@ -37,9 +44,22 @@ class SparseCholesky {
   SparseCholesky(SparseCholesky&&) noexcept;
   SparseCholesky& operator=(SparseCholesky&&) noexcept;
 
+  // What the analysis of a sparsity pattern found (ordering, elimination tree, pattern of L and
+  // its split over threads); opaque, shared by factorizations of matrices with that pattern.
+  struct Analysis;
+  struct Factor;  // L in the two layouts the sweeps read
+
   // Analyses and factors a symmetric positive definite matrix (both triangles stored).
   // Throws SolveError when it is not positive definite or the factorization fails.
-  void factor(const Eigen::SparseMatrix<double>& matrix, SolverBackend backend);
+  //  - ordering (Tree only; the other backends order by themselves): ordering[i] is unknown i's
+  //    rank in a fill-reducing elimination order, lowest first; empty: AMD on this matrix.
+  //  - reuse (Tree only): an earlier factorization's analysis(); taken, and the analysis
+  //    skipped, when this matrix has exactly the pattern it was made for.
+  void factor(const Eigen::SparseMatrix<double>& matrix, SolverBackend backend, std::span<const int> ordering = {},
+              const std::shared_ptr<const Analysis>& reuse = nullptr);
+  // This factorization's analysis, for reuse; null unless the backend is Tree.
+  std::shared_ptr<const Analysis> analysis() const;
+  bool reused_analysis() const;
 
   bool empty() const { return size() == 0; }
   Eigen::Index size() const;
@@ -64,9 +84,8 @@ class SparseCholesky {
   Eigen::MatrixXd solve(const Eigen::MatrixXd& rhs) const;
 
  private:
-  struct Factor;  // L in the two layouts the sweeps read, and the elimination tree's split
   std::unique_ptr<Factor> factor_;
-  SolverBackend backend_ = SolverBackend::Eigen;
+  SolverBackend backend_ = SolverBackend::Tree;
 };
 
 // How the columns of one solve are spread over threads. Each group is one row-major block solved
