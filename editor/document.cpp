@@ -393,8 +393,16 @@ void Document::poll() {
   start_build();
 }
 
+bool Document::drags_previous_selection() const {
+  return build_ && pipeline_ && deformer_ && deformer_rest_ == rest_.get() && deformer_->handle_count() == handles_.size() &&
+         !same_constraints(deformer_constraints_, current_stage().constraints());
+}
+
 std::uint64_t Document::request_update() {
-  if (!pipeline_ || !deformer_ || !same_constraints(deformer_constraints_, current_stage().constraints())) return 0;
+  if (!pipeline_ || !deformer_) return 0;
+  // While a new selection is being factored the drag goes on with the last one (same rest shape,
+  // as many handles); installing the new set-up solves the current poses again.
+  if (!same_constraints(deformer_constraints_, current_stage().constraints()) && !drags_previous_selection()) return 0;
   last_request_ = request_base_ + pipeline_->submit(current_stage().transforms());
   return last_request_;
 }

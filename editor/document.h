@@ -128,8 +128,12 @@ class Document {
   std::vector<RefinementTimings> take_refinement_timings();
 
   // Posts the current poses to the pipeline (newest wins); returns the request number (0 when
-  // nothing is solved yet).
+  // nothing can be solved yet). While a new selection is set up, the poses are solved with the
+  // previous one (drags_previous_selection()).
   std::uint64_t request_update();
+  // Whether a set-up for a changed selection is running while the previous selection's solver
+  // (same rest shape and number of handles) still answers the drag.
+  bool drags_previous_selection() const;
   std::uint64_t last_published_request() const { return last_published_.load(); }
   // The positions for the current poses, exactly as `hdeform edit --session` computes them
   // (waits for a pending rebuild and the update in flight).

@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <fstream>
+#include <mutex>
 #include <random>
 #include <thread>
 
@@ -258,6 +259,79 @@ TEST_F(DocumentTest, ARebuildRunsOffTheCallingThreadAndTheStateSaysSo) {
   document->wait_until_ready();
   EXPECT_EQ(document->solver_state(), cli::Document::SolverState::Ready);
   EXPECT_NE(document->field(), nullptr);
+}
+
+// A stroke never stops the drag: while the new selection is factored, the poses are solved with
+// the previous one, and the new set-up then solves them again.
+TEST_F(DocumentTest, WhileANewSelectionIsSetUpTheDragUsesThePreviousOne) {
+  std::mutex mutex;
+  std::vector<std::pair<std::uint64_t, Eigen::MatrixXd>> published;
+  document->set_publish([&](const Eigen::MatrixXd& positions, std::uint64_t request) {
+    const std::lock_guard lock(mutex);
+    published.emplace_back(request, positions);
+  });
+  document->paint(shape.demo_constraints.fixed, cli::Layer::Fixed, false);
+  document->paint(shape.demo_constraints.handles[0], cli::Layer::Handle, false);
+  document->commit();
+  document->wait_until_ready();
+  ASSERT_EQ(document->solver_state(), cli::Document::SolverState::Ready);
+  EXPECT_FALSE(document->drags_previous_selection());
+
+  // A stroke adds a free vertex next to the handle: a new set-up starts (and is not installed
+  // before the next poll).
+  int added = -1;
+  for (const int v : shape.demo_constraints.handles[0]) {
+    for (const int w : document->adjacency().neighbours(v)) {
+      if (document->label(w) == cli::Document::kFree) added = w;
+    }
+  }
+  ASSERT_GE(added, 0);
+  const std::vector<int> old_handle = shape.demo_constraints.handles[0];
+  document->paint(std::span(&added, 1), cli::Layer::Handle, false);
+  document->commit();
+  document->poll();
+  ASSERT_EQ(document->solver_state(), cli::Document::SolverState::Building);
+  EXPECT_TRUE(document->drags_previous_selection());
+  document->set_pose(0, Eigen::Vector3d::UnitX(), 0.6, 1.0, Eigen::Vector3d(0.1, 0.0, 0.0));
+  const std::uint64_t provisional = document->request_update();
+  ASSERT_GT(provisional, 0u);
+  for (int k = 0; k < 400; ++k) {
+    {
+      const std::lock_guard lock(mutex);
+      if (!published.empty() && published.back().first == provisional) break;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  Eigen::MatrixXd shown;
+  {
+    const std::lock_guard lock(mutex);
+    ASSERT_EQ(published.back().first, provisional);
+    shown = published.back().second;
+  }
+  // The previous selection's answer: its handle follows the pose exactly, the added vertex is
+  // still free (not where the pose puts it), the fixed vertices stay.
+  const HandleTransform& pose = document->pose(0);
+  for (const int v : old_handle) {
+    EXPECT_LE((shown.row(v).transpose() - pose.apply(shape.mesh.positions.row(v).transpose())).norm(), 1e-12);
+  }
+  EXPECT_GT((shown.row(added).transpose() - pose.apply(shape.mesh.positions.row(added).transpose())).norm(), 1e-6);
+  for (const int v : shape.demo_constraints.fixed) EXPECT_EQ(shown.row(v), shape.mesh.positions.row(v));
+
+  // Once the new set-up is in, the same poses are solved with it: the batch replay's result.
+  document->wait_until_ready();
+  EXPECT_FALSE(document->drags_previous_selection());
+  const Eigen::MatrixXd final_result = document->result();
+  EXPECT_LE((final_result.row(added).transpose() - pose.apply(shape.mesh.positions.row(added).transpose())).norm(), 1e-12);
+  for (int k = 0; k < 400; ++k) {
+    {
+      const std::lock_guard lock(mutex);
+      if (published.back().first > provisional) break;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  const std::lock_guard lock(mutex);
+  ASSERT_GT(published.back().first, provisional);
+  EXPECT_LE((published.back().second - final_result).norm(), 1e-9 * final_result.norm());
 }
 
 TEST_F(DocumentTest, AFailedSetUpKeepsThePreviousResultOnScreen) {

@@ -149,7 +149,10 @@ void EditorApp::draw_controls() {
   }
   switch (document_->solver_state()) {
     case Document::SolverState::NoHandle: ImGui::TextWrapped("Paint a handle (3) to deform."); break;
-    case Document::SolverState::Building: ImGui::TextWrapped("%s...", document_->solver_message().c_str()); break;
+    case Document::SolverState::Building:
+      ImGui::TextWrapped("%s...", document_->solver_message().c_str());
+      if (document_->drags_previous_selection()) ImGui::TextDisabled("Dragging with the previous selection until then.");
+      break;
     case Document::SolverState::Failed: wrapped_in_color(ImVec4(1, 0.45f, 0.45f, 1), document_->solver_message()); break;
     case Document::SolverState::Ready: break;
   }
