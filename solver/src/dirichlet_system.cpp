@@ -34,6 +34,14 @@ DirichletSystem::DirichletSystem(const Eigen::SparseMatrix<double>& laplacian, c
   }
   const auto factor_start = std::chrono::steady_clock::now();
   std::vector<int> free_rank;
+  // Without an order given, the whole Laplacian's is computed: every system on a mesh then
+  // eliminates in the same order (the editor's, the batch commands', the field's), so their
+  // results agree to the last bit.
+  std::vector<int> own_rank;
+  if (vertex_rank.empty() && backend == SolverBackend::Tree && !free.empty()) {
+    own_rank = elimination_ranks(laplacian);
+    vertex_rank = own_rank;
+  }
   if (!vertex_rank.empty()) {
     if (vertex_rank.size() != n) throw std::invalid_argument("DirichletSystem: the elimination order is of another mesh");
     free_rank.resize(free.size());

@@ -22,9 +22,9 @@ class DirichletSystem {
     double weight;  // L_fc entry
   };
 
-  // Throws SolveError when the factorization fails. `vertex_rank` (optional) is an elimination
-  // order of the whole Laplacian (elimination_ranks); the free vertices are eliminated in the
-  // order it induces. `reuse`: an earlier system's factor().analysis(), taken when L_ff has the
+  // Throws SolveError when the factorization fails. `vertex_rank` is an elimination order of the
+  // whole Laplacian (elimination_ranks; computed here when not given); the free vertices are
+  // eliminated in the order it induces. `reuse`: an earlier system's factor().analysis(), taken when L_ff has the
   // pattern it was made for (see SparseCholesky::factor).
   DirichletSystem(const Eigen::SparseMatrix<double>& laplacian, const VertexPartition& partition, SolverBackend backend,
                   std::span<const int> vertex_rank = {}, const std::shared_ptr<const SparseCholesky::Analysis>& reuse = nullptr);
