@@ -219,6 +219,22 @@ void expect_refused(const test::TempDir& dir, const std::string& name, const std
   }
 }
 
+// The OFF header's words may come from lines joined by a backslash, whose buffer the next
+// continuation grows (the fuzzer found the header read from freed memory).
+TEST(MeshFormats, AnOffHeaderSpreadOverContinuedLinesIsKept) {
+  // The first joined line short (kept inside the string) and long (on the heap, freed when the
+  // second one outgrows it).
+  for (const std::size_t blanks : {0, 40}) {
+    const std::string content =
+        "OFF" + std::string(blanks, ' ') + "\\\n\n3 \\\n" + std::string(200, ' ') + "1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
+    const Mesh mesh = parse_mesh("continued.off", content);
+    ASSERT_EQ(mesh.vertex_count(), 3) << blanks;
+    ASSERT_EQ(mesh.triangle_count(), 1) << blanks;
+    EXPECT_EQ(mesh.positions(1, 0), 1.0);
+    EXPECT_EQ(mesh.triangles(0, 2), 2);
+  }
+}
+
 TEST(MeshFormats, MalformedFilesNameTheFileAndTheProblem) {
   const test::TempDir dir;
   const std::string header = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"

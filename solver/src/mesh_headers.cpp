@@ -154,7 +154,8 @@ void check_ply_header(const std::filesystem::path& path, std::string_view conten
 Mesh parse_off(const std::filesystem::path& path, std::string_view content) {
   reject_binary(path, content);
   // The header keyword and the three counts: the first four tokens, on one line or several.
-  std::vector<std::pair<std::size_t, std::string_view>> words;
+  // Copied: a line joined by a continuation lives in a buffer the next continuation reuses.
+  std::vector<std::pair<std::size_t, std::string>> words;
   std::array<std::size_t, 3> counts{};
   std::vector<std::array<double, 3>> points;
   Polygons polygons;
@@ -171,13 +172,13 @@ Mesh parse_off(const std::filesystem::path& path, std::string_view content) {
     if (tokens.empty()) return;
     last_line = line;
     std::size_t first = 0;
-    while (words.size() < 4 && first < tokens.size()) words.emplace_back(line, tokens[first++]);
+    while (words.size() < 4 && first < tokens.size()) words.emplace_back(line, std::string(tokens[first++]));
     if (words.size() < 4) {
       if (words.size() == 2 && words[1].second == "BINARY") fail_at(path, line, "binary OFF is not read (ASCII OFF only)");
       return;
     }
     if (first > 0) {  // the line that completed the header
-      const auto header = words[0].second;
+      const std::string_view header = words[0].second;
       const bool known = header == "OFF" || header == "COFF" || header == "NOFF" || header == "CNOFF" || header == "STOFF" ||
                          header == "STCOFF" || header == "STNOFF" || header == "STCNOFF";
       if (!known) {
@@ -187,7 +188,7 @@ Mesh parse_off(const std::filesystem::path& path, std::string_view content) {
         const auto count = parse_count(words[k + 1].second);
         if (!count) {
           if (k == 0 && words[1].second == "BINARY") fail_at(path, words[1].first, "binary OFF is not read (ASCII OFF only)");
-          fail_at(path, words[k + 1].first, quoted(words[k + 1].second) + " is not a count (vertices, faces, edges)");
+          fail_at(path, words[k + 1].first, quoted(std::string_view(words[k + 1].second)) + " is not a count (vertices, faces, edges)");
         }
         counts[k] = *count;
       }
