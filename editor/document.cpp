@@ -393,17 +393,23 @@ void Document::poll() {
   start_build();
 }
 
+bool Document::previous_selection_answers(const EditStage& stage) const {
+  return build_ && pipeline_ && deformer_ && deformer_rest_ == rest_.get() && deformer_->handle_count() == stage.handles.size();
+}
+
 bool Document::drags_previous_selection() const {
-  return build_ && pipeline_ && deformer_ && deformer_rest_ == rest_.get() && deformer_->handle_count() == handles_.size() &&
-         !same_constraints(deformer_constraints_, current_stage().constraints());
+  const EditStage stage = current_stage();
+  return previous_selection_answers(stage) && !same_constraints(deformer_constraints_, stage.constraints());
 }
 
 std::uint64_t Document::request_update() {
   if (!pipeline_ || !deformer_) return 0;
-  // While a new selection is being factored the drag goes on with the last one (same rest shape,
-  // as many handles); installing the new set-up solves the current poses again.
-  if (!same_constraints(deformer_constraints_, current_stage().constraints()) && !drags_previous_selection()) return 0;
-  last_request_ = request_base_ + pipeline_->submit(current_stage().transforms());
+  // Built once: the drag calls this for every move. While a new selection is being factored the
+  // drag goes on with the last one (same rest shape, as many non-empty handles); installing the
+  // new set-up solves the current poses again.
+  const EditStage stage = current_stage();
+  if (!same_constraints(deformer_constraints_, stage.constraints()) && !previous_selection_answers(stage)) return 0;
+  last_request_ = request_base_ + pipeline_->submit(stage.transforms());
   return last_request_;
 }
 

@@ -160,6 +160,9 @@ class Document {
   void set_members(Layer layer, const std::vector<bool>& members);
   void start_build();
   void install_build();
+  // A set-up is running and the deformer in place can take `stage`'s poses (same rest shape, as
+  // many non-empty handles).
+  bool previous_selection_answers(const EditStage& stage) const;
   void stop_pipeline();
 
   std::string mesh_name_;

@@ -334,6 +334,34 @@ TEST_F(DocumentTest, WhileANewSelectionIsSetUpTheDragUsesThePreviousOne) {
   EXPECT_LE((published.back().second - final_result).norm(), 1e-9 * final_result.norm());
 }
 
+// A stroke that empties one of two handles leaves the previous deformer with a pose too many:
+// the drag waits for the new set-up instead.
+TEST_F(DocumentTest, ADragDuringASetUpNeedsAsManyHandlesAsThePreviousSelection) {
+  const auto& handle = shape.demo_constraints.handles[0];
+  const std::vector<int> first(handle.begin(), handle.begin() + static_cast<std::ptrdiff_t>(handle.size() / 2));
+  const std::vector<int> second(handle.begin() + static_cast<std::ptrdiff_t>(handle.size() / 2), handle.end());
+  document->paint(shape.demo_constraints.fixed, cli::Layer::Fixed, false);
+  document->paint(first, cli::Layer::Handle, false);
+  document->add_handle();
+  document->paint(second, cli::Layer::Handle, false);
+  document->commit();
+  document->wait_until_ready();
+  ASSERT_EQ(document->solver_state(), cli::Document::SolverState::Ready);
+  ASSERT_GT(document->request_update(), 0u);
+
+  document->paint(second, cli::Layer::Handle, true);  // handle 2 erased: still listed, now empty
+  document->commit();
+  ASSERT_EQ(document->handle_count(), 2u);
+  ASSERT_EQ(document->handle_size(1), 0u);
+  document->poll();
+  ASSERT_EQ(document->solver_state(), cli::Document::SolverState::Building);
+  EXPECT_FALSE(document->drags_previous_selection());
+  EXPECT_EQ(document->request_update(), 0u);
+  document->wait_until_ready();
+  EXPECT_EQ(document->solver_state(), cli::Document::SolverState::Ready);
+  EXPECT_GT(document->request_update(), 0u);
+}
+
 TEST_F(DocumentTest, AFailedSetUpKeepsThePreviousResultOnScreen) {
   document->paint(shape.demo_constraints.fixed, cli::Layer::Fixed, false);
   document->paint(shape.demo_constraints.handles[0], cli::Layer::Handle, false);

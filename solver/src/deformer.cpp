@@ -83,11 +83,11 @@ std::shared_ptr<const MeshOperators> MeshOperators::of(const Mesh& mesh) {
   std::optional<trace::Scope> stage;
   stage.emplace("cotangent weights", "set-up");
   operators->weights = cotangent_weights(mesh);
-  // The ordering needs only the Laplacian's pattern, the inspection only the weights: the two run
-  // side by side.
   stage.emplace("Laplacian", "set-up");
   operators->laplacian = cotangent_laplacian(mesh, operators->weights);
   stage.reset();
+  // The ordering needs only the Laplacian's pattern, the inspection only the weights: the two run
+  // side by side.
   tbb::parallel_invoke(
       [&] {
         const trace::Scope traced("mesh inspection", "set-up");
