@@ -2,7 +2,10 @@
 // match against a brute-force search, exact reproduction when target and source are one mesh,
 // one factorization per matrix over a sequence, marker-file errors, and (with ../shared/meshes)
 // how closely the paper's two experiments are recovered.
+#include <algorithm>
 #include <fstream>
+#include <limits>
+#include <numeric>
 #include <random>
 
 #include "hdeform/correspondence.h"
@@ -123,8 +126,29 @@ Eigen::MatrixXd triangle_coordinates(const Mesh& mesh, const std::vector<int>& m
   return barycenter_values(harmonic_coordinates(system, partition, markers), mesh.triangles);
 }
 
-// The search through the principal directions is exact on real coordinates with many markers:
-// lion → cat (55) and horse → camel (124), every 40th target triangle against a full scan.
+// The nearest source row to target row t by a full scan over the components (all when `top_n` is
+// 0, else the row's n largest, ties to the lower index); ties go to the lower source row.
+std::pair<int, double> scan_nearest(const Eigen::MatrixXd& target, Eigen::Index t, const Eigen::MatrixXd& source, int top_n) {
+  std::vector<int> components(static_cast<std::size_t>(target.cols()));
+  std::iota(components.begin(), components.end(), 0);
+  if (top_n > 0) {
+    std::sort(components.begin(), components.end(), [&](int a, int b) { return target(t, a) > target(t, b) || (target(t, a) == target(t, b) && a < b); });
+    components.resize(static_cast<std::size_t>(top_n));
+    std::sort(components.begin(), components.end());
+  }
+  int nearest = -1;
+  double best = std::numeric_limits<double>::infinity();
+  for (Eigen::Index s = 0; s < source.rows(); ++s) {
+    double squared = 0.0;
+    for (const int c : components) squared += (target(t, c) - source(s, c)) * (target(t, c) - source(s, c));
+    if (squared < best) best = squared, nearest = static_cast<int>(s);
+  }
+  return {nearest, std::sqrt(best)};
+}
+
+// The tree search is exact on real coordinates with many markers: lion → cat (55) and
+// horse → camel (124), over all components and the 3 or 10 largest, every 37th target triangle
+// against a full scan: the same source triangle, and its distance but for rounding.
 TEST(TriangleMatch, EqualsABruteForceSearchOnTheSharedMarkers) {
   HDEFORM_REQUIRE_SHARED_MESHES();
   const auto meshes = test::shared_meshes();
@@ -142,13 +166,13 @@ TEST(TriangleMatch, EqualsABruteForceSearchOnTheSharedMarkers) {
     const auto markers = read_marker_pairs(meshes / pair.markers, pair.column, source.vertex_count(), target.vertex_count());
     const Eigen::MatrixXd source_coordinates = triangle_coordinates(source, markers.source);
     const Eigen::MatrixXd target_coordinates = triangle_coordinates(target, markers.target);
-    const TriangleMatch match = match_triangles(target_coordinates, source_coordinates);
-    for (Eigen::Index t = 0; t < target_coordinates.rows(); t += 40) {
-      const Eigen::VectorXd distances = (source_coordinates.rowwise() - target_coordinates.row(t)).rowwise().norm();
-      Eigen::Index nearest = 0;
-      const double best = distances.minCoeff(&nearest);
-      EXPECT_NEAR(match.distance[static_cast<std::size_t>(t)], best, 1e-12) << "target triangle " << t;
-      EXPECT_NEAR(distances(match.source[static_cast<std::size_t>(t)]), best, 1e-12) << "target triangle " << t;
+    for (const int top_n : {0, 3, 10}) {
+      const TriangleMatch match = match_triangles(target_coordinates, source_coordinates, top_n);
+      for (Eigen::Index t = 0; t < target_coordinates.rows(); t += 37) {
+        const auto [nearest, distance] = scan_nearest(target_coordinates, t, source_coordinates, top_n);
+        EXPECT_EQ(match.source[static_cast<std::size_t>(t)], nearest) << "top-n " << top_n << ", target triangle " << t;
+        EXPECT_NEAR(match.distance[static_cast<std::size_t>(t)], distance, 1e-14) << "top-n " << top_n << ", target triangle " << t;
+      }
     }
   }
 }
@@ -165,32 +189,22 @@ TEST(TriangleMatch, EqualsABruteForceSearchOverAllOrTheLargestComponents) {
     }
     return m;
   };
-  const Eigen::MatrixXd source = rows(700);
+  Eigen::MatrixXd source = rows(700);
   const Eigen::MatrixXd target = rows(300);
-  for (const int top_n : {0, 3, 5, 11}) {
+  // Exact ties: repeated source rows go to the lowest of them.
+  source.row(650) = source.row(20);
+  for (const int top_n : {0, 3, 5, 11, k}) {
     const TriangleMatch match = match_triangles(target, source, top_n);
     for (Eigen::Index t = 0; t < target.rows(); ++t) {
-      std::vector<int> components(k);
-      std::iota(components.begin(), components.end(), 0);
-      if (top_n > 0) {
-        std::sort(components.begin(), components.end(), [&](int a, int b) { return target(t, a) > target(t, b) || (target(t, a) == target(t, b) && a < b); });
-        components.resize(static_cast<std::size_t>(top_n));
-      }
-      double best = std::numeric_limits<double>::infinity();
-      for (Eigen::Index s = 0; s < source.rows(); ++s) {
-        double squared = 0.0;
-        for (const int c : components) squared += (target(t, c) - source(s, c)) * (target(t, c) - source(s, c));
-        best = std::min(best, std::sqrt(squared));
-      }
-      EXPECT_NEAR(match.distance[static_cast<std::size_t>(t)], best, 1e-12) << "top-n " << top_n << ", target " << t;
-      double found = 0.0;
-      for (const int c : components) {
-        const double d = target(t, c) - source(match.source[static_cast<std::size_t>(t)], c);
-        found += d * d;
-      }
-      EXPECT_NEAR(std::sqrt(found), best, 1e-12);
+      const auto [nearest, distance] = scan_nearest(target, t, source, top_n == k ? 0 : top_n);
+      EXPECT_EQ(match.source[static_cast<std::size_t>(t)], nearest) << "top-n " << top_n << ", target " << t;
+      EXPECT_NEAR(match.distance[static_cast<std::size_t>(t)], distance, 1e-14) << "top-n " << top_n << ", target " << t;
     }
   }
+  // A target row equal to a repeated source row finds its first copy at distance 0.
+  const TriangleMatch repeated = match_triangles(source.row(650), source);
+  EXPECT_EQ(repeated.source[0], 20);
+  EXPECT_EQ(repeated.distance[0], 0.0);
   EXPECT_THROW(match_triangles(target, source, 2), std::invalid_argument);
   EXPECT_THROW(match_triangles(target, source, k + 1), std::invalid_argument);
 }

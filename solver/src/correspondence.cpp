@@ -2,52 +2,190 @@
 
 #include <algorithm>
 #include <cmath>
-#include <map>
+#include <limits>
 #include <numeric>
 #include <stdexcept>
 #include <string>
 
-#include <nanoflann.hpp>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
 
 namespace hdeform {
 namespace {
 
 using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+using Row = Eigen::Map<const Eigen::RowVectorXd>;
 
-// Rows of a row-major matrix as nanoflann's points.
-struct RowPoints {
-  const RowMajor& rows;
-  std::size_t kdtree_get_point_count() const { return static_cast<std::size_t>(rows.rows()); }
-  double kdtree_get_pt(std::size_t index, std::size_t dimension) const {
-    return rows(static_cast<Eigen::Index>(index), static_cast<Eigen::Index>(dimension));
+// A lower bound computed in floating point may round above the true one; pruning a little less
+// keeps the search exact.
+constexpr double kBoundSlack = 1e-9;
+constexpr int kLeafSize = 12;
+constexpr int kParallelBuild = 2048;  // points below which a subtree is built on one thread
+constexpr int kBlock = 16;            // components summed between two checks of a bound
+
+// The source coordinates in a binary tree whose nodes each know the box around their points, in
+// all k components. The coordinates of a surface form a two-dimensional sheet in k dimensions:
+// splitting along the sheet's long extent shrinks a node's box in every component at once, where
+// a k-d tree splits along one coordinate at a time and bounds a query's distance by the few
+// coordinates split on its path. The box bound holds for a distance over any subset of the
+// components too: it is a sum over components.
+class CoordinateTree {
+ public:
+  explicit CoordinateTree(const RowMajor& source)
+      : k_(static_cast<int>(source.cols())), nodes_(static_cast<std::size_t>(node_count(static_cast<int>(source.rows())))),
+        low_(nodes_.size() * static_cast<std::size_t>(k_)), high_(low_.size()), index_(static_cast<std::size_t>(source.rows())) {
+    const auto count = static_cast<int>(source.rows());
+    std::iota(index_.begin(), index_.end(), 0);
+    std::vector<double> projection(static_cast<std::size_t>(count));
+    build(source, 0, 0, count, projection);
+    points_.resize(count, k_);
+    position_.resize(static_cast<std::size_t>(count));
+    tbb::parallel_for(0, count, [&](int p) {
+      points_.row(p) = source.row(index_[static_cast<std::size_t>(p)]);
+      position_[static_cast<std::size_t>(index_[static_cast<std::size_t>(p)])] = p;
+    });
   }
-  template <class Box>
-  bool kdtree_get_bbox(Box&) const {
-    return false;
+
+  // The source row nearest to `query` over `components` (all k when empty), ties to the lower
+  // row; `guess`, any row (best one near the answer), only tightens the search from the start.
+  std::pair<int, double> nearest(const double* query, const std::vector<int>& components, int guess) const {
+    Search search{query, components, guess, squared_distance(query, components, points_.row(position_[static_cast<std::size_t>(guess)]).data())};
+    search.prune_above = prune_limit(search.best_squared);
+    if (box_distance(0, search, search.prune_above) <= search.prune_above) visit(0, search);
+    return {search.best, std::sqrt(search.best_squared)};
   }
-};
 
-using Tree = nanoflann::KDTreeSingleIndexAdaptor<nanoflann::L2_Simple_Adaptor<double, RowPoints>, RowPoints, -1, std::uint32_t>;
-constexpr std::size_t kLeafSize = 16;
+ private:
+  struct Node {
+    int begin = 0, end = 0;
+    int right = -1;  // the left child is the next node; -1 for a leaf
+  };
+  struct Search {
+    const double* query;
+    const std::vector<int>& components;
+    int best;
+    double best_squared;
+    double prune_above = 0.0;
+  };
 
-// Nearest `points` row to each of `queries`' rows; writes match.source/distance at `targets`.
-void match_rows(const RowMajor& points, const RowMajor& queries, const std::vector<int>& targets, TriangleMatch& match) {
-  const RowPoints adaptor{points};
-  const Tree tree(static_cast<int>(points.cols()), adaptor, nanoflann::KDTreeSingleIndexAdaptorParams(kLeafSize));
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, targets.size(), 64), [&](const auto& range) {
-    for (std::size_t q = range.begin(); q != range.end(); ++q) {
-      std::uint32_t nearest = 0;
-      double squared = 0.0;
-      nanoflann::KNNResultSet<double, std::uint32_t> result(1);
-      result.init(&nearest, &squared);
-      tree.findNeighbors(result, queries.row(static_cast<Eigen::Index>(q)).data(), nanoflann::SearchParams());
-      const auto t = static_cast<std::size_t>(targets[q]);
-      match.source[t] = static_cast<int>(nearest);
-      match.distance[t] = std::sqrt(squared);
+  // The tree's shape depends on the number of points alone (splits at the median), so each
+  // subtree's nodes have known places and the halves are built in parallel.
+  static int node_count(int points) { return points <= kLeafSize ? 1 : 1 + node_count(points / 2) + node_count(points - points / 2); }
+
+  // A bound computed in floating point may round above the true one: a node is pruned only
+  // when its bound exceeds the best distance by more than rounding can explain.
+  static double prune_limit(double best_squared) { return best_squared * (1.0 + kBoundSlack); }
+
+  void build(const RowMajor& source, int node, int begin, int end, std::vector<double>& projection) {
+    const auto offset = static_cast<std::size_t>(node) * static_cast<std::size_t>(k_);
+    Eigen::Map<Eigen::RowVectorXd> low(low_.data() + offset, k_), high(high_.data() + offset, k_);
+    auto row = [&](int p) { return source.row(index_[static_cast<std::size_t>(p)]); };
+    low = row(begin);
+    high = row(begin);
+    for (int p = begin + 1; p < end; ++p) {
+      low = low.cwiseMin(row(p));
+      high = high.cwiseMax(row(p));
     }
-  });
-}
+    nodes_[static_cast<std::size_t>(node)] = {begin, end, -1};
+    if (end - begin <= kLeafSize) return;
+    // Split at the median along the line from the point farthest from the box's centre to the
+    // point farthest from that one: the sheet's long extent, without an eigen-decomposition.
+    auto farthest_from = [&](const Eigen::RowVectorXd& from) {
+      int far = begin;
+      double widest = -1.0;
+      for (int p = begin; p < end; ++p) {
+        const double squared = (row(p) - from).squaredNorm();
+        if (squared > widest) widest = squared, far = p;
+      }
+      return row(far).eval();
+    };
+    const Eigen::RowVectorXd from = farthest_from(0.5 * (low + high));
+    const Eigen::RowVectorXd direction = farthest_from(from) - from;
+    for (int p = begin; p < end; ++p) projection[static_cast<std::size_t>(index_[static_cast<std::size_t>(p)])] = row(p).dot(direction);
+    const int middle = begin + (end - begin) / 2;
+    std::nth_element(index_.begin() + begin, index_.begin() + middle, index_.begin() + end, [&](int a, int b) {
+      return projection[static_cast<std::size_t>(a)] < projection[static_cast<std::size_t>(b)] ||
+             (projection[static_cast<std::size_t>(a)] == projection[static_cast<std::size_t>(b)] && a < b);
+    });
+    const int left = node + 1;
+    const int right = left + node_count(middle - begin);
+    nodes_[static_cast<std::size_t>(node)].right = right;
+    if (end - begin < kParallelBuild) {
+      build(source, left, begin, middle, projection);
+      build(source, right, middle, end, projection);
+    } else {
+      tbb::parallel_invoke([&] { build(source, left, begin, middle, projection); }, [&] { build(source, right, middle, end, projection); });
+    }
+  }
+
+  // The squared distance over the components; past `limit`, a partial sum above it.
+  double squared_distance(const double* query, const std::vector<int>& components, const double* point,
+                          double limit = std::numeric_limits<double>::infinity()) const {
+    if (components.empty()) {
+      double squared = 0.0;
+      for (int first = 0; first < k_ && squared <= limit; first += kBlock) {
+        const int width = std::min(kBlock, k_ - first);
+        squared += (Row(query + first, width) - Row(point + first, width)).squaredNorm();
+      }
+      return squared;
+    }
+    double squared = 0.0;
+    for (const int c : components) squared += (query[c] - point[c]) * (query[c] - point[c]);
+    return squared;
+  }
+
+  // The squared distance from the query to the node's box; once it exceeds `limit`, a partial
+  // sum above it (the sum only grows), so that most far nodes are known far after a few blocks.
+  double box_distance(int node, const Search& search, double limit) const {
+    const auto offset = static_cast<std::size_t>(node) * static_cast<std::size_t>(k_);
+    const double* low = low_.data() + offset;
+    const double* high = high_.data() + offset;
+    double to_box = 0.0;
+    if (search.components.empty()) {
+      for (int first = 0; first < k_ && to_box <= limit; first += kBlock) {
+        const int width = std::min(kBlock, k_ - first);
+        const Row query(search.query + first, width);
+        to_box += ((Row(low + first, width) - query).cwiseMax(0.0) + (query - Row(high + first, width)).cwiseMax(0.0)).squaredNorm();
+      }
+      return to_box;
+    }
+    for (const int c : search.components) {
+      const double q = search.query[c];
+      const double gap = std::max(low[c] - q, 0.0) + std::max(q - high[c], 0.0);
+      to_box += gap * gap;
+    }
+    return to_box;
+  }
+
+  void visit(int node, Search& search) const {
+    const Node& here = nodes_[static_cast<std::size_t>(node)];
+    if (here.right < 0) {
+      for (int p = here.begin; p < here.end; ++p) {
+        const double squared = squared_distance(search.query, search.components, points_.row(p).data(), search.best_squared);
+        const int index = index_[static_cast<std::size_t>(p)];
+        if (squared < search.best_squared || (squared == search.best_squared && index < search.best)) {
+          search.best_squared = squared;
+          search.best = index;
+          search.prune_above = prune_limit(squared);
+        }
+      }
+      return;
+    }
+    const double left_bound = box_distance(node + 1, search, search.prune_above);
+    const double right_bound = box_distance(here.right, search, search.prune_above);
+    const int first = left_bound <= right_bound ? node + 1 : here.right;
+    const int second = first == here.right ? node + 1 : here.right;
+    if (std::min(left_bound, right_bound) <= search.prune_above) visit(first, search);
+    if (std::max(left_bound, right_bound) <= search.prune_above) visit(second, search);
+  }
+
+  int k_;
+  std::vector<Node> nodes_;
+  std::vector<double> low_, high_;  // per node, the box: k each
+  std::vector<int> index_;          // tree order → source row
+  std::vector<int> position_;       // source row → tree order
+  RowMajor points_;                 // the source rows in tree order
+};
 
 }  // namespace
 
@@ -58,42 +196,35 @@ TriangleMatch match_triangles(const Eigen::MatrixXd& target, const Eigen::Matrix
     throw std::invalid_argument("top-n must be between 3 and the number of markers (" + std::to_string(k) + "), got " + std::to_string(top_n));
   }
   TriangleMatch match;
-  const auto target_count = static_cast<std::size_t>(target.rows());
-  match.source.assign(target_count, -1);
-  match.distance.assign(target_count, 0.0);
+  const auto target_count = static_cast<Eigen::Index>(target.rows());
+  match.source.assign(static_cast<std::size_t>(target_count), -1);
+  match.distance.assign(static_cast<std::size_t>(target_count), 0.0);
   if (target_count == 0 || source.rows() == 0) return match;
+  if (top_n == k) top_n = 0;
 
-  if (top_n == 0 || top_n == k) {
-    const RowMajor points = source;
-    const RowMajor queries = target;
-    std::vector<int> all(target_count);
-    std::iota(all.begin(), all.end(), 0);
-    match_rows(points, queries, all, match);
-    return match;
-  }
-
-  // Group the target triangles by their n largest components (ties to the lower index): each
-  // group searches the source coordinates projected onto its components.
-  std::map<std::vector<int>, std::vector<int>> groups;
-  std::vector<int> order(static_cast<std::size_t>(k));
-  for (std::size_t t = 0; t < target_count; ++t) {
-    std::iota(order.begin(), order.end(), 0);
-    const auto row = target.row(static_cast<Eigen::Index>(t));
-    std::partial_sort(order.begin(), order.begin() + top_n, order.end(), [&](int a, int b) { return row(a) > row(b) || (row(a) == row(b) && a < b); });
-    std::vector<int> components(order.begin(), order.begin() + top_n);
-    std::sort(components.begin(), components.end());
-    groups[components].push_back(static_cast<int>(t));
-  }
-  const std::vector<std::pair<std::vector<int>, std::vector<int>>> work(groups.begin(), groups.end());
-  tbb::parallel_for(std::size_t{0}, work.size(), [&](std::size_t g) {
-    const auto& [components, members] = work[g];
-    RowMajor points(source.rows(), top_n);
-    RowMajor queries(static_cast<Eigen::Index>(members.size()), top_n);
-    for (int c = 0; c < top_n; ++c) {
-      points.col(c) = source.col(components[static_cast<std::size_t>(c)]);
-      for (std::size_t q = 0; q < members.size(); ++q) queries(static_cast<Eigen::Index>(q), c) = target(members[q], components[static_cast<std::size_t>(c)]);
+  const CoordinateTree tree{RowMajor(source)};
+  const RowMajor queries = target;
+  // Neighbouring target triangles (mostly neighbours in the file's order, too) have nearby
+  // matches: each query starts from the previous one's answer.
+  tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, target_count, 128), [&](const auto& range) {
+    std::vector<int> components;
+    std::vector<int> order(static_cast<std::size_t>(k));
+    int guess = 0;
+    for (Eigen::Index t = range.begin(); t != range.end(); ++t) {
+      const double* query = queries.row(t).data();
+      if (top_n > 0) {
+        // The n largest components, ties to the lower index.
+        std::iota(order.begin(), order.end(), 0);
+        std::partial_sort(order.begin(), order.begin() + top_n, order.end(),
+                          [&](int a, int b) { return query[a] > query[b] || (query[a] == query[b] && a < b); });
+        components.assign(order.begin(), order.begin() + top_n);
+        std::sort(components.begin(), components.end());
+      }
+      const auto [nearest, distance] = tree.nearest(query, components, guess);
+      match.source[static_cast<std::size_t>(t)] = nearest;
+      match.distance[static_cast<std::size_t>(t)] = distance;
+      guess = nearest;
     }
-    match_rows(points, queries, members, match);
   });
   return match;
 }

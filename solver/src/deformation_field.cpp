@@ -116,9 +116,13 @@ Eigen::VectorXd barycenter_values(const Eigen::VectorXd& vertex_values, const Ei
 
 Eigen::MatrixXd barycenter_values(const Eigen::MatrixXd& vertex_values, const Eigen::MatrixXi& triangles) {
   Eigen::MatrixXd values(triangles.rows(), vertex_values.cols());
-  for (Eigen::Index t = 0; t < triangles.rows(); ++t) {
-    values.row(t) = (vertex_values.row(triangles(t, 0)) + vertex_values.row(triangles(t, 1)) + vertex_values.row(triangles(t, 2))) / 3.0;
-  }
+  // Column by column: a column of the vertex values stays in cache while its triangles gather
+  // from it (row by row, 124 marker columns cost a cache miss per corner and column).
+  tbb::parallel_for(Eigen::Index{0}, vertex_values.cols(), [&](Eigen::Index c) {
+    const auto corners = vertex_values.col(c);
+    auto column = values.col(c);
+    for (Eigen::Index t = 0; t < triangles.rows(); ++t) column(t) = (corners(triangles(t, 0)) + corners(triangles(t, 1)) + corners(triangles(t, 2))) / 3.0;
+  });
   return values;
 }
 

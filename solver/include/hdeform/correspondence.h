@@ -15,8 +15,8 @@ struct TriangleMatch {
 
 // `target` is m_t × k, `source` m_s × k (one coordinate per row). top_n = 0 compares all k
 // components; otherwise 3 ≤ top_n ≤ k (throws std::invalid_argument outside). Exact nearest
-// neighbours, by k-d trees (nanoflann): one over the source for all k components, or one per
-// distinct set of n components among the target triangles; queries run in parallel.
+// neighbours, ties to the lower source row, found in one tree of balls and boxes over the source
+// coordinates that serves all k components and every set of n alike; queries run in parallel.
 TriangleMatch match_triangles(const Eigen::MatrixXd& target, const Eigen::MatrixXd& source, int top_n = 0);
 
 }  // namespace hdeform
