@@ -6,12 +6,14 @@
 #include <cmath>
 #include <fstream>
 #include <optional>
+#include <sstream>
 
 #include "hdeform/atomic_file.h"
 #include "hdeform/errors.h"
 #include "hdeform/laplacian.h"
 #include "hdeform/mesh_io.h"
 #include "hdeform/shapes.h"
+#include "obj_pieces.h"
 #include "test_support.h"
 
 namespace hdeform {
@@ -149,6 +151,65 @@ TEST(MeshIo, LineEndsBlanksMarksAndContinuationsReadAsTheLfOriginal) {
     EXPECT_EQ(read.mesh->positions, reference.mesh->positions) << name;
     EXPECT_EQ(read.mesh->triangles, reference.mesh->triangles) << name;
   }
+}
+
+// The parallel path cuts the text into pieces at line ends and joins what they define. Cut every
+// way small pieces allow, each text reads as in one pass: the same arrays, bit for bit, or (for a
+// text with a problem) no mesh, so that the one pass names the problem.
+TEST(MeshIo, PiecesReadInParallelGiveTheOnePassResult) {
+  const test::TempDir dir;
+  std::vector<std::string> texts = {
+      // relative indices that reach back into earlier pieces, forward references, a quad, a pentagon
+      "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nf 1 2 3 4\n# a comment\nv 2 0.5 0.25\nf -4 -1 -3\nf 2 6 3\nv 3 1 0\nv 3 2 0\nf 1 2 7 8 4\nf 5 6 -1\n",
+      "\xEF\xBB\xBFv 0 0 0\r\nv 1 0 0\r\nv 0 1 0\r\nf 1 2 3\r\n",  // a byte-order mark, CRLF
+      "v 0 0 0\rv 1 0 0\rv 0 1 0\rf -3 -2 -1\r",                // lone CR only: one piece
+      "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 \\\n 2 \\\r\n 3\n\\\nf 3 2 1 # \\\n",  // continuations
+      "v 0 0 0\nv 1 0 0\nv 0 1 0\n\xEF\xBB\xBFv 9 9 9\nf 1 2 3\n",  // a mark inside is no mark
+      "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 -4\n",  // reaches before the first vertex
+      "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n",   // out of range
+      "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 x\n",
+      "v 0 0 0\nv 1 0 0\nv 0 1 0\n",            // no faces
+      std::string("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n\x01\n", 35),
+  };
+  // And a real mesh with relative faces: every face written as negative indices.
+  const Mesh cactus = make_shape(ShapeKind::Cactus, 12).mesh;
+  std::ostringstream written;
+  for (Eigen::Index v = 0; v < cactus.vertex_count(); ++v) {
+    written << "v " << cactus.positions(v, 0) << ' ' << cactus.positions(v, 1) << ' ' << cactus.positions(v, 2) << '\n';
+    for (Eigen::Index t = 0; t < cactus.triangle_count(); ++t) {
+      if (cactus.triangles.row(t).maxCoeff() != v) continue;
+      written << 'f';
+      for (int c = 0; c < 3; ++c) written << ' ' << cactus.triangles(t, c) - v - 1;
+      written << '\n';
+    }
+  }
+  const std::string relative = written.str();
+  texts.push_back(relative);
+  for (std::size_t i = 0; i < texts.size(); ++i) {
+    const auto whole = read_text(dir, texts[i]);
+    for (const std::size_t piece_bytes : {1, 2, 3, 7, 16, 61, 1000}) {
+      SCOPED_TRACE("text " + std::to_string(i) + ", pieces of " + std::to_string(piece_bytes) + " bytes");
+      std::optional<Mesh> pieces;
+      std::string error;
+      try {
+        pieces = detail::try_parse_obj_in_pieces("in.obj", texts[i], piece_bytes);
+      } catch (const InputError& thrown) {
+        error = thrown.what();
+      }
+      if (whole.mesh) {
+        ASSERT_TRUE(pieces) << error;
+        EXPECT_EQ(pieces->positions, whole.mesh->positions);
+        EXPECT_EQ(pieces->triangles, whole.mesh->triangles);
+      } else {
+        EXPECT_FALSE(pieces);
+        // Only the joined arrays' problems (no faces here) are named by the pieces, as the one pass names them.
+        if (!error.empty()) {
+          EXPECT_EQ(error.substr(error.find(':')), whole.error.substr(whole.error.find(':'))) << error;
+        }
+      }
+    }
+  }
+  EXPECT_EQ(read_text(dir, relative).mesh->triangles.rows(), cactus.triangle_count());
 }
 
 TEST(MeshIo, LineNumbersCountEveryKindOfLineEnd) {

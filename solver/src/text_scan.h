@@ -34,8 +34,9 @@ void for_each_raw_line(std::string_view content, Visit&& visit) {
   std::size_t line_number = 0;
   std::size_t start = 0;
   while (start < content.size()) {
-    std::size_t end = content.find_first_of("\r\n", start);
-    if (end == std::string_view::npos) end = content.size();
+    // A plain loop: find_first_of tests each byte against the set through a call.
+    std::size_t end = start;
+    while (end < content.size() && content[end] != '\n' && content[end] != '\r') ++end;
     visit(++line_number, content.substr(start, end - start));
     start = end + 1;
     if (end < content.size() && content[end] == '\r' && start < content.size() && content[start] == '\n') ++start;

@@ -2,7 +2,9 @@
 // both build the same vertex and triangle arrays, bit for bit. The reference below is written
 // for clarity, not speed, and shares no code with the reader: it normalises line ends first,
 // splits with a string stream, checks number syntax with a hand-written grammar and converts with
-// strtod/strtoll. Its rules are the ones README.md states for OBJ files.
+// strtod/strtoll. Its rules are the ones README.md states for OBJ files. The reader's parallel
+// path (the text cut into pieces, parsed apart and joined) must agree with its one-pass path too:
+// the same arrays, or a refusal with the same message.
 #include <bit>
 #include <cctype>
 #include <cerrno>
@@ -16,6 +18,7 @@
 
 #include "fuzz_input.h"
 #include "hdeform/mesh_io.h"
+#include "obj_pieces.h"
 
 namespace {
 
@@ -188,6 +191,38 @@ std::optional<ReferenceMesh> reference_read(std::string text) {
   std::abort();
 }
 
+bool same_arrays(const hdeform::Mesh& a, const hdeform::Mesh& b) {
+  if (a.positions.rows() != b.positions.rows() || a.triangles.rows() != b.triangles.rows()) return false;
+  for (Eigen::Index i = 0; i < a.positions.size(); ++i) {
+    if (std::bit_cast<std::uint64_t>(a.positions.data()[i]) != std::bit_cast<std::uint64_t>(b.positions.data()[i])) return false;
+  }
+  return a.triangles == b.triangles;
+}
+
+// Pieces of 1 to 64 bytes, chosen by the input's length: every cut the input's lines allow.
+void compare_pieces(const std::string& text, const std::optional<hdeform::Mesh>& whole) {
+  std::string whole_error, pieces_error;
+  if (!whole) {
+    try {
+      (void)hdeform::parse_obj("input.obj", text);
+    } catch (const hdeform::InputError& error) {
+      whole_error = error.what();
+    }
+  }
+  std::optional<hdeform::Mesh> pieces;
+  try {
+    pieces = hdeform::detail::try_parse_obj_in_pieces("input.obj", text, 1 + text.size() % 64);
+  } catch (const hdeform::InputError& error) {
+    pieces_error = error.what();
+  }
+  if (pieces && (!whole || !same_arrays(*pieces, *whole))) disagree("the pieces build other arrays than the one pass");
+  if (!pieces_error.empty() && pieces_error != whole_error) disagree("the pieces refuse with another message than the one pass");
+  if (whole && !pieces) {
+    // Only a problem in a piece (nothing in a valid file) sends a valid file to the one pass.
+    disagree("the pieces refuse a file the one pass reads");
+  }
+}
+
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
@@ -197,6 +232,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   hdeform::fuzz::expect_clean_refusal([&] { mesh = hdeform::parse_obj("input.obj", text); });
   const auto reference = reference_read(text);
   if (mesh.has_value() != reference.has_value()) disagree(mesh ? "the reader accepts, the reference refuses" : "the reader refuses, the reference accepts");
+  compare_pieces(text, mesh);
   if (!mesh) return 0;
   if (static_cast<std::size_t>(mesh->positions.size()) != reference->coordinates.size()) disagree("vertex count");
   if (static_cast<std::size_t>(mesh->triangles.size()) != reference->triangles.size()) disagree("triangle count");
