@@ -196,7 +196,7 @@ class EditCommand final : public BatchCommand {
     if (!png_path_.empty()) {
       progress("rendering " + png_path_);
       engine::Scene scene{positions, deformer.rest().triangles, {}, vertex_classes(deformer.partition()), {},
-                          engine::Bounds::of(deformer.rest().positions), picture_.up_axis()};
+                          engine::Bounds::of(deformer.rest().positions), picture_.up_axis(), {}};
       picture = render_png(picture_, scene, png_path_);
     }
 #endif

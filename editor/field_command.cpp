@@ -71,7 +71,7 @@ class FieldCommand final : public BatchCommand {
 #ifdef HDEFORM_WITH_ENGINE
     if (!png_path_.empty()) {
       progress("rendering " + png_path_);
-      engine::Scene scene{mesh.positions, mesh.triangles, field, vertex_classes(partition), {}, {}, picture_.up_axis()};
+      engine::Scene scene{mesh.positions, mesh.triangles, field, vertex_classes(partition), {}, {}, picture_.up_axis(), {}};
       picture = render_png(picture_, scene, png_path_);
     }
 #endif

@@ -26,6 +26,11 @@ class GuiCommand final : public BatchCommand {
                         "auto (latch on a CPU device)")
         ->check(CLI::IsMember({"auto", "free", "latch"}))
         ->capture_default_str();
+    command->add_option("--proxy", options_.proxy,
+                        "Large meshes on a CPU device: auto (a simplified mesh over the same vertices while it moves, the whole mesh "
+                        "once it rests), off (always the whole mesh)")
+        ->check(CLI::IsMember({"auto", "off"}))
+        ->capture_default_str();
     command->add_flag("--validation", options_.validation, "Enable the Khronos validation layer");
     command->add_flag("!--no-refine", options_.refine,
                       "A new session starts with the as-rigid-as-possible refinement off (the paper's method alone; a panel toggle)");

@@ -14,6 +14,7 @@
 #include "gui/gizmo.h"
 #include "gui/handle_drag.h"
 #include "gui/input_queue.h"
+#include "gui/motion_detail.h"
 #include "gui/pose_editor.h"
 #include "gui/view_navigation.h"
 
@@ -224,6 +225,35 @@ TEST_F(HeadlessImGui, AnAxisTypedToZeroLengthIsRefused) {
 // The gizmo's arithmetic against closed forms, with the eye on the +z axis looking down.
 Ray ray_through(const Eigen::Vector3f& point, const Eigen::Vector3f& eye = Eigen::Vector3f(0.3f, -0.2f, 10.0f)) {
   return Ray(eye, (point - eye).normalized());
+}
+
+// The proxy while the mesh moves, the whole mesh once it has rested for the rest time, and the
+// event loop told when that is due; never the proxy when it is off.
+TEST(MotionDetail, TheProxyWhileMovingTheMeshOnceAtRest) {
+  using namespace std::chrono_literals;
+  const MotionDetail::Clock::time_point start{};
+  MotionDetail detail(250ms);
+  detail.note_motion(start);
+  EXPECT_FALSE(detail.proxy(start + 10ms)) << "off until a proxy is enabled";
+  EXPECT_FALSE(detail.until_rest(start));
+  detail.enable(true);
+  EXPECT_TRUE(detail.proxy(start + 10ms));
+  EXPECT_TRUE(detail.proxy(start + 249ms));
+  EXPECT_FALSE(detail.proxy(start + 250ms));
+  ASSERT_TRUE(detail.until_rest(start + 100ms));
+  EXPECT_EQ(*detail.until_rest(start + 100ms), 150ms);
+  EXPECT_EQ(*detail.until_rest(start + 400ms), 0ms) << "overdue: wake at once";
+  detail.note_drawn(true);  // a proxy frame: the whole mesh still due
+  EXPECT_TRUE(detail.until_rest(start + 100ms));
+  detail.note_motion(start + 200ms);  // moving again: the rest starts over
+  EXPECT_TRUE(detail.proxy(start + 400ms));
+  detail.note_drawn(false);  // the whole mesh drawn: nothing due until the next motion
+  EXPECT_FALSE(detail.until_rest(start + 400ms));
+  EXPECT_FALSE(detail.proxy(start + 410ms));
+  detail.note_motion(start + 500ms);
+  detail.enable(false);
+  EXPECT_FALSE(detail.proxy(start + 510ms));
+  EXPECT_FALSE(detail.until_rest(start + 510ms));
 }
 
 TEST(Gizmo, AnAxisDragMovesAlongThatAxisOnlyAndByWhatTheCursorCovers) {

@@ -3,6 +3,7 @@
 #include <cstdio>
 #include <limits>
 #include <numbers>
+#include <set>
 #include <thread>
 
 #include "hdeform/deformer.h"
@@ -12,6 +13,7 @@
 #include "hdeform/engine/mesh_renderer.h"
 #include "hdeform/engine/offscreen.h"
 #include "hdeform/engine/palette.h"
+#include "hdeform/engine/proxy_mesh.h"
 #include "hdeform/harmonic_field.h"
 #include "hdeform/laplacian.h"
 #include "hdeform/shapes.h"
@@ -43,8 +45,8 @@ CactusScenes cactus_scenes() {
   Eigen::MatrixXd bent;
   deformer.deform(std::span(&shape.demo_transform, 1), bent);
   CactusScenes scenes;
-  scenes.field = {shape.mesh.positions, shape.mesh.triangles, deformer.field(), classes_of(deformer.partition()), {}, {}, engine::UpAxis::Z};
-  scenes.bent = {bent, shape.mesh.triangles, {}, classes_of(deformer.partition()), {}, engine::Bounds::of(shape.mesh.positions), engine::UpAxis::Z};
+  scenes.field = {shape.mesh.positions, shape.mesh.triangles, deformer.field(), classes_of(deformer.partition()), {}, {}, engine::UpAxis::Z, {}};
+  scenes.bent = {bent, shape.mesh.triangles, {}, classes_of(deformer.partition()), {}, engine::Bounds::of(shape.mesh.positions), engine::UpAxis::Z, {}};
   return scenes;
 }
 
@@ -223,6 +225,53 @@ TEST_F(Render, VerticesWithTheirOwnColourShowIt) {
   const engine::Pixels image = engine::render_offscreen(*context, scene, shot);
   EXPECT_LE((test::pixel(image, 16, 32) - orange).cwiseAbs().maxCoeff(), 0.02f);
   EXPECT_LE((test::pixel(image, 48, 32) - teal).cwiseAbs().maxCoeff(), 0.02f);
+}
+
+// The proxy drawn while a large mesh moves: triangles over the mesh's own vertices, about as many
+// as asked for, the surface kept (closed stays closed, area within 1%), nothing for a mesh that
+// is small already.
+TEST(ProxyMesh, FewerTrianglesOverTheSameVerticesAndTheSameSurface) {
+  const Mesh sphere = make_shape(ShapeKind::Sphere, 240).mesh;
+  ASSERT_GT(sphere.triangle_count(), 40000);
+  const Eigen::MatrixXi proxy = engine::proxy_triangles(sphere.triangles, sphere.positions, 4000);
+  EXPECT_GT(proxy.rows(), 3000);
+  EXPECT_LE(proxy.rows(), 4000);
+  EXPECT_NO_THROW(validate_triangles(proxy, sphere.vertex_count()));
+  auto area = [&](const Eigen::MatrixXi& triangles) {
+    double sum = 0.0;
+    for (Eigen::Index t = 0; t < triangles.rows(); ++t) {
+      const Eigen::Vector3d a = sphere.positions.row(triangles(t, 0)), b = sphere.positions.row(triangles(t, 1)), c = sphere.positions.row(triangles(t, 2));
+      sum += 0.5 * (b - a).cross(c - a).norm();
+    }
+    return sum;
+  };
+  EXPECT_NEAR(area(proxy) / area(sphere.triangles), 1.0, 0.01);
+  std::set<std::pair<int, int>> directed;
+  for (Eigen::Index t = 0; t < proxy.rows(); ++t) {
+    for (int k = 0; k < 3; ++k) directed.insert({proxy(t, k), proxy(t, (k + 1) % 3)});
+  }
+  for (const auto& [from, to] : directed) EXPECT_TRUE(directed.count({to, from})) << from << " → " << to << " has no twin";
+  EXPECT_EQ(engine::proxy_triangles(sphere.triangles, sphere.positions, sphere.triangle_count() / 2).rows(), 0);
+}
+
+// Drawn with the proxy, the picture is nearly the mesh's; without the setting, exactly the mesh's.
+TEST_F(Render, TheProxyDrawsNearlyTheMeshesPicture) {
+  const Mesh sphere = make_shape(ShapeKind::Sphere, 240).mesh;
+  engine::Scene scene;
+  scene.positions = sphere.positions;
+  scene.triangles = sphere.triangles;
+  scene.field = sphere.positions.col(2);
+  engine::Shot shot;
+  shot.width = shot.height = 256;
+  const engine::Pixels full = engine::render_offscreen(*context, scene, shot);
+  scene.proxy_triangles = engine::proxy_triangles(sphere.triangles, sphere.positions, 4000);
+  EXPECT_EQ(test::compare_images(full, engine::render_offscreen(*context, scene, shot), 0).differing_fraction, 0.0);
+  shot.settings.proxy = true;
+  const engine::Pixels proxy = engine::render_offscreen(*context, scene, shot);
+  EXPECT_LT(test::compare_images(full, proxy, 24).differing_fraction, 0.02);
+  // A proxy that dropped half the surface is caught.
+  scene.proxy_triangles.conservativeResize(scene.proxy_triangles.rows() / 2, 3);
+  EXPECT_GT(test::compare_images(full, engine::render_offscreen(*context, scene, shot), 24).differing_fraction, 0.05);
 }
 
 TEST(GeometryExchange, TheReaderGetsTheNewestPublicationWithoutWaiting) {

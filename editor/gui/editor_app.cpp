@@ -51,7 +51,10 @@ int EditorApp::run() {
                                      document_->last_published_request() != shown_tag_));
     if (busy) glfwPollEvents();
     else {
-      glfwWaitEventsTimeout(0.25);
+      // Idle, but a frame of the proxy may be waiting to be replaced by the whole mesh.
+      double timeout = 0.25;
+      if (const auto rest = motion_detail_.until_rest(Clock::now())) timeout = std::min(timeout, std::chrono::duration<double>(*rest).count());
+      glfwWaitEventsTimeout(timeout);
       waited_idle_ = true;
     }
     if (glfwWindowShouldClose(window_)) {
@@ -277,6 +280,7 @@ void EditorApp::step() {
     if (event.kind == InputEvent::Kind::Key && event.action == GLFW_PRESS) frame_keys_.push_back({event.code, event.mods});
   }
   finish_load();
+  finish_proxy();
   if (!dropped_paths_.empty()) {
     if (mode_ == Mode::Transfer) transfer_->drop(dropped_paths_, ImGui::GetIO().MousePos);
     else open_path(dropped_paths_.front());
@@ -370,7 +374,11 @@ void EditorApp::render(ImDrawData* draw_data) {
   if (mode_ == Mode::Transfer) {
     transfer_->prepare(slot.index, extent, kPanelWidth * ImGui::GetIO().DisplayFramebufferScale.x);
   } else {
-    renderer_->prepare(slot.index, camera_, settings_, extent);
+    if (view_moving()) motion_detail_.note_motion(now);
+    engine::RenderSettings frame_settings = settings_;
+    frame_settings.proxy = motion_detail_.proxy(now);
+    renderer_->prepare(slot.index, camera_, frame_settings, extent);
+    motion_detail_.note_drawn(frame_settings.proxy);
     shown_tag_ = renderer_->drawn_geometry_tag();
   }
   target_->begin(slot.commands, image);
@@ -389,6 +397,12 @@ void EditorApp::render(ImDrawData* draw_data) {
     write_screenshot(target_->read_last_image());
     screenshot_requested_ = false;
   }
+}
+
+bool EditorApp::view_moving() const {
+  const bool handle_dragged = dragging_ && !is_paint_tool(tools_.tool);
+  const bool new_solve = document_ && document_->last_published_request() != shown_tag_;
+  return handle_dragged || camera_drag_ || ImGui::GetIO().MouseWheel != 0.0f || new_solve;
 }
 
 void EditorApp::take_profile() {

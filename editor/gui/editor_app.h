@@ -24,6 +24,7 @@ struct EditorOptions {
   int samples = 0;      // 0: 4 on a GPU, 1 on a CPU device
   std::string device;
   std::string pacing = "auto";  // latch, free, or auto: latch on a CPU device (see wait_for_device)
+  std::string proxy = "auto";   // auto: a simplified mesh while a large one moves on a CPU device (motion_detail.h); off
   bool validation = false;
   bool refine = true;   // a new session refines (as-rigid-as-possible); a session file says for itself
   std::filesystem::path recovery_file;  // empty: default_recovery_path()

@@ -33,6 +33,7 @@
 #include "gui/handle_drag.h"
 #include "gui/gizmo.h"
 #include "gui/input_queue.h"
+#include "gui/motion_detail.h"
 #include "gui/pose_editor.h"
 #include "gui/profiler_panel.h"
 #include "gui/recent_files.h"
@@ -50,6 +51,7 @@
 #include "hdeform/engine/image_io.h"
 #include "hdeform/engine/mesh_renderer.h"
 #include "hdeform/engine/palette.h"
+#include "hdeform/engine/proxy_mesh.h"
 #include "hdeform/engine/swapchain_target.h"
 #include "hdeform/errors.h"
 #include "hdeform/mesh_io.h"
@@ -378,6 +380,15 @@ class EditorApp {
   std::unique_ptr<RecoveryWriter> recovery_;
 
   BackgroundTask<Loaded> load_;  // reading a mesh or session and replaying it
+  BackgroundTask<Eigen::MatrixXi> proxy_task_;  // simplifying the mesh just opened (CPU device)
+  MotionDetail motion_detail_;
+  Eigen::Index proxy_triangle_count_ = 0;
+  // Starts simplifying a newly opened mesh, on a CPU device with --proxy auto; installs the proxy
+  // when it is done (finish_proxy, each frame).
+  void start_proxy();
+  void finish_proxy();
+  // Whether the geometry moves this frame: a handle dragged, the view turned, a new solve.
+  bool view_moving() const;
   Clock::time_point build_started_{};
 
   engine::Camera camera_;

@@ -206,6 +206,7 @@ void EditorApp::install(Loaded loaded_document) {
   mesh_name_ = loaded->session.mesh;
   const auto bounds = engine::Bounds::of(document_->rest().positions);
   renderer_->set_mesh(document_->rest().triangles, *exchange_, bounds, up_axis());
+  start_proxy();
   picker_.reset();
   adjust_camera(true);
   brush_radius_ = 0.03f * bounds.radius() * 2.0f;
@@ -236,6 +237,32 @@ void EditorApp::install(Loaded loaded_document) {
                    {"session_digest", session_digest(document_->session())}});
   document_->request_update();
   post_recovery();
+}
+
+void EditorApp::start_proxy() {
+  motion_detail_.enable(false);
+  proxy_task_.abandon();
+  if (options_.proxy != "auto" || !context_->is_cpu_device()) return;
+  const Mesh& rest = document_->rest();
+  if (rest.triangle_count() <= 2 * engine::kProxyTriangles) return;
+  proxy_task_.start("Simplifying the mesh for dragging", [triangles = rest.triangles, positions = rest.positions] {
+    const trace::Scope traced("proxy mesh", "set-up");
+    return engine::proxy_triangles(triangles, positions);
+  }, [] { glfwPostEmptyEvent(); });
+}
+
+void EditorApp::finish_proxy() {
+  if (!proxy_task_.done()) return;
+  auto outcome = proxy_task_.take();
+  if (!outcome.result) {
+    // Only slower frames follow: say so, and draw the whole mesh as always.
+    status_ = "No simplified mesh for dragging: " + outcome.error;
+    return;
+  }
+  renderer_->set_proxy(*outcome.result);
+  proxy_triangle_count_ = outcome.result->rows();
+  motion_detail_.enable(renderer_->has_proxy());
+  print_json_line({{"event", "proxy"}, {"triangles", outcome.result->rows()}});
 }
 
 void EditorApp::adjust_camera(bool reset_angles) {

@@ -33,6 +33,7 @@ void EditorApp::draw_footer() {
     ImGui::Text("Frames: %zu per second", statistics_.frames_per_second(Clock::now()));
     ImGui::Text("Frame: %s", percentile_text(statistics_.frame_intervals()).c_str());
     ImGui::Text("Input to screen: %s", percentile_text(statistics_.latencies()).c_str());
+    if (motion_detail_.enabled()) ImGui::TextDisabled("While moving: a %d-triangle proxy", static_cast<int>(proxy_triangle_count_));
   }
   ImGui::TextWrapped("%s", status_.c_str());
   for (const auto& note : shown_notes()) wrapped_in_color(ImVec4(1.0f, 0.8f, 0.3f, 1.0f), note);

@@ -269,6 +269,8 @@ MeshRenderer::~MeshRenderer() {
 
 void MeshRenderer::release_mesh_buffers() {
   context_.destroy(indices_);
+  context_.destroy(proxy_indices_);
+  proxy_index_count_ = 0;
   for (auto& frame : frames_) {
     context_.destroy(frame.geometry);
     context_.destroy(frame.attributes);
@@ -287,11 +289,7 @@ void MeshRenderer::set_mesh(const Eigen::MatrixXi& triangles, GeometryExchange& 
   rest_bounds_ = rest;
   up_ = up;
   index_count_ = static_cast<uint32_t>(triangles.size());
-  indices_ = context_.create_buffer(sizeof(uint32_t) * index_count_, VK_BUFFER_USAGE_INDEX_BUFFER_BIT);
-  auto* out = static_cast<uint32_t*>(indices_.mapped);
-  for (Eigen::Index t = 0; t < triangles.rows(); ++t) {
-    for (int k = 0; k < 3; ++k) *out++ = static_cast<uint32_t>(triangles(t, k));
-  }
+  indices_ = index_buffer(triangles);
   // Closed: every directed edge has its reverse (each edge in two consistently oriented triangles).
   std::vector<std::uint64_t> directed;
   directed.reserve(static_cast<std::size_t>(triangles.size()));
@@ -313,6 +311,25 @@ void MeshRenderer::set_mesh(const Eigen::MatrixXi& triangles, GeometryExchange& 
   ++attributes_version_;
   markers_cpu_.clear();
   ++markers_version_;
+}
+
+Buffer MeshRenderer::index_buffer(const Eigen::MatrixXi& triangles) const {
+  Buffer buffer = context_.create_buffer(sizeof(uint32_t) * static_cast<std::size_t>(triangles.size()), VK_BUFFER_USAGE_INDEX_BUFFER_BIT);
+  auto* out = static_cast<uint32_t*>(buffer.mapped);
+  for (Eigen::Index t = 0; t < triangles.rows(); ++t) {
+    for (int k = 0; k < 3; ++k) *out++ = static_cast<uint32_t>(triangles(t, k));
+  }
+  return buffer;
+}
+
+void MeshRenderer::set_proxy(const Eigen::MatrixXi& triangles) {
+  validate_triangles(triangles, static_cast<Eigen::Index>(vertex_count_), "proxy to draw");
+  vkDeviceWaitIdle(context_.device());
+  context_.destroy(proxy_indices_);
+  proxy_index_count_ = 0;
+  if (triangles.rows() == 0) return;
+  proxy_indices_ = index_buffer(triangles);
+  proxy_index_count_ = static_cast<uint32_t>(triangles.size());
 }
 
 void MeshRenderer::set_field(std::span<const float> values) {
@@ -414,14 +431,16 @@ void MeshRenderer::record(VkCommandBuffer commands, uint32_t frame_index, VkRect
     const std::array<VkBuffer, 2> buffers{frame.geometry.buffer, frame.attributes.buffer};
     const std::array<VkDeviceSize, 2> offsets{0, 0};
     vkCmdBindVertexBuffers(commands, HD_VERTEX_BINDING_GEOMETRY, 2, buffers.data(), offsets.data());
-    vkCmdBindIndexBuffer(commands, indices_.buffer, 0, VK_INDEX_TYPE_UINT32);
+    const bool proxy = frame.settings.proxy && proxy_index_count_ > 0;
+    const uint32_t index_count = proxy ? proxy_index_count_ : index_count_;
+    vkCmdBindIndexBuffer(commands, proxy ? proxy_indices_.buffer : indices_.buffer, 0, VK_INDEX_TYPE_UINT32);
     using BackFaces = RenderSettings::BackFaces;
     const bool cull = frame.settings.back_faces == BackFaces::Cull || (frame.settings.back_faces == BackFaces::Auto && closed_);
     vkCmdBindPipeline(commands, VK_PIPELINE_BIND_POINT_GRAPHICS, surface_[frame.settings.flat_shading ? 1 : 0][cull ? 1 : 0]);
-    vkCmdDrawIndexed(commands, index_count_, 1, 0, 0, 0);
+    vkCmdDrawIndexed(commands, index_count, 1, 0, 0, 0);
     if (frame.settings.wireframe && wireframe_ != VK_NULL_HANDLE) {
       vkCmdBindPipeline(commands, VK_PIPELINE_BIND_POINT_GRAPHICS, wireframe_);
-      vkCmdDrawIndexed(commands, index_count_, 1, 0, 0, 0);
+      vkCmdDrawIndexed(commands, index_count, 1, 0, 0, 0);
     }
   }
   if (frame.settings.ground) {

@@ -12,6 +12,7 @@ Pixels render_offscreen(const VulkanContext& context, const Scene& scene, const 
   GeometryExchange geometry(static_cast<std::size_t>(scene.positions.rows()));
   GeometryPublisher(geometry, scene.triangles).publish(scene.positions);
   renderer.set_mesh(scene.triangles, geometry, bounds, scene.up);
+  if (scene.proxy_triangles.rows() > 0) renderer.set_proxy(scene.proxy_triangles);
   if (scene.field.size() > 0) {
     const Eigen::VectorXf field = scene.field.cast<float>();
     renderer.set_field({field.data(), static_cast<std::size_t>(field.size())});

@@ -31,6 +31,7 @@ struct RenderSettings {
   float field_max = 1.0f;    // ... and at its end
   float isoline_step = 0.1f; // 0: no isolines
   float isoline_width = 1.5f;  // pixels
+  bool proxy = false;        // draw the proxy set by set_proxy (when there is one) instead of the mesh
 };
 
 // Vertex classes as the shaders read them.
@@ -58,6 +59,10 @@ class MeshRenderer {
   // A new mesh (waits until the device is idle). Its geometry then comes from `geometry`, which
   // must outlive this renderer or the next set_mesh; `rest` places the ground and the camera.
   void set_mesh(const Eigen::MatrixXi& triangles, GeometryExchange& geometry, const Bounds& rest, UpAxis up);
+  // A coarser set of triangles over the same vertices (proxy_mesh.h), drawn when the settings ask
+  // for it; empty: none. Reset by set_mesh.
+  void set_proxy(const Eigen::MatrixXi& triangles);
+  bool has_proxy() const { return proxy_index_count_ > 0; }
   // Whether every edge of the mesh set last has two triangles (no boundary).
   bool mesh_is_closed() const { return closed_; }
   // Per-vertex field values (empty: none) and classes (empty: all free).
@@ -98,6 +103,7 @@ class MeshRenderer {
   };
 
   void create_pipelines(VkRenderPass render_pass, const PassFormat& format);
+  Buffer index_buffer(const Eigen::MatrixXi& triangles) const;
   void release_mesh_buffers();
 
   const VulkanContext& context_;
@@ -114,6 +120,8 @@ class MeshRenderer {
   GeometryExchange* geometry_ = nullptr;
   Buffer indices_;
   uint32_t index_count_ = 0;
+  Buffer proxy_indices_;
+  uint32_t proxy_index_count_ = 0;
   std::size_t vertex_count_ = 0;
   Bounds rest_bounds_;
   bool closed_ = false;

@@ -20,6 +20,7 @@ struct Scene {
   std::vector<Marker> markers;
   Bounds rest_bounds;              // places the camera and the ground; from positions when empty
   UpAxis up = UpAxis::Z;
+  Eigen::MatrixXi proxy_triangles; // drawn instead with shot.settings.proxy (proxy_mesh.h), or empty
 };
 
 struct Shot {
