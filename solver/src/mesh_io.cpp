@@ -62,7 +62,7 @@ struct ObjContent {
   std::vector<double> coordinates;
   Polygons polygons;
   long long vertex_count = 0;
-  // Positive indices may refer forward: they are checked against the final count afterwards.
+  // Positive indices may refer forward: those are checked against the final count afterwards.
   struct ForwardReference {
     std::size_t line;
     long long index;
@@ -103,7 +103,8 @@ void parse_obj_line(const std::filesystem::path& path, std::size_t line, std::st
       if (index > INT_MAX) {
         fail_at(path, line, "face index " + std::to_string(index) + " out of range (at most " + std::to_string(INT_MAX) + " vertices)");
       }
-      if (index > 0) content.forward_references.push_back({line, index});
+      // Only an index beyond the vertices so far can be beyond the last one.
+      if (index > content.vertex_count) content.forward_references.push_back({line, index});
       if (index < 0 && !content.knows_earlier_vertices) content.relative_corners.push_back(content.polygons.corners.size());
       content.polygons.corners.push_back(static_cast<int>(index > 0 ? index - 1 : content.vertex_count + index));
     }
