@@ -2,6 +2,7 @@
 
 #include <Eigen/Geometry>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
 
 #include <algorithm>
 #include <array>
@@ -11,14 +12,30 @@ namespace hdeform {
 namespace {
 
 // Marks every triangle that repeats an earlier one (same vertex set, either orientation).
-void mark_duplicates(const Eigen::MatrixXi& triangles, std::vector<ElementKind>& kind) {
+void mark_duplicates(const Eigen::MatrixXi& triangles, Eigen::Index vertex_count, std::vector<ElementKind>& kind) {
   const auto m = static_cast<std::size_t>(triangles.rows());
-  std::vector<std::array<int, 3>> sorted(m);
-  for (std::size_t t = 0; t < m; ++t) {
-    sorted[t] = {triangles(static_cast<Eigen::Index>(t), 0), triangles(static_cast<Eigen::Index>(t), 1),
-                 triangles(static_cast<Eigen::Index>(t), 2)};
-    std::sort(sorted[t].begin(), sorted[t].end());
+  auto sorted_corners = [&](std::size_t t) {
+    std::array<int, 3> corners{triangles(static_cast<Eigen::Index>(t), 0), triangles(static_cast<Eigen::Index>(t), 1),
+                               triangles(static_cast<Eigen::Index>(t), 2)};
+    std::sort(corners.begin(), corners.end());
+    return corners;
+  };
+  if (vertex_count <= (Eigen::Index{1} << 21)) {
+    // Three indices below 2^21 make one 63-bit key: a parallel sort of numbers.
+    std::vector<std::pair<std::uint64_t, std::uint32_t>> keys(m);
+    tbb::parallel_for(std::size_t{0}, m, [&](std::size_t t) {
+      const auto c = sorted_corners(t);
+      keys[t] = {(std::uint64_t(std::uint32_t(c[0])) << 42) | (std::uint64_t(std::uint32_t(c[1])) << 21) | std::uint32_t(c[2]),
+                 static_cast<std::uint32_t>(t)};
+    });
+    tbb::parallel_sort(keys.begin(), keys.end());
+    for (std::size_t k = 1; k < m; ++k) {
+      if (keys[k].first == keys[k - 1].first) kind[keys[k].second] = ElementKind::Ignored;
+    }
+    return;
   }
+  std::vector<std::array<int, 3>> sorted(m);
+  for (std::size_t t = 0; t < m; ++t) sorted[t] = sorted_corners(t);
   std::vector<std::uint32_t> order(m);
   std::iota(order.begin(), order.end(), 0u);
   std::sort(order.begin(), order.end(), [&](std::uint32_t a, std::uint32_t b) {
@@ -41,7 +58,7 @@ CotangentWeights cotangent_weights(const Mesh& mesh) {
   CotangentWeights weights;
   weights.half_cotangent = Eigen::MatrixXd::Zero(m, 3);
   weights.kind.assign(static_cast<std::size_t>(m), ElementKind::Regular);
-  mark_duplicates(mesh.triangles, weights.kind);
+  mark_duplicates(mesh.triangles, mesh.vertex_count(), weights.kind);
 
   tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, m, 4096), [&](const tbb::blocked_range<Eigen::Index>& range) {
     for (Eigen::Index t = range.begin(); t != range.end(); ++t) {
@@ -73,34 +90,73 @@ CotangentWeights cotangent_weights(const Mesh& mesh) {
 
 Eigen::SparseMatrix<double> cotangent_laplacian(const Mesh& mesh, const CotangentWeights& weights) {
   const auto n = mesh.vertex_count();
-  std::vector<Eigen::Triplet<double>> entries;
-  entries.reserve(static_cast<std::size_t>(mesh.triangle_count()) * 6 + static_cast<std::size_t>(n));
-  for (Eigen::Index t = 0; t < mesh.triangle_count(); ++t) {
-    if (weights.kind[static_cast<std::size_t>(t)] == ElementKind::Ignored) continue;
-    for (int k = 0; k < 3; ++k) {
-      const int i = mesh.triangles(t, (k + 1) % 3);
-      const int j = mesh.triangles(t, (k + 2) % 3);
-      const double w = weights.half_cotangent(t, k);
-      entries.emplace_back(i, j, -w);
-      entries.emplace_back(j, i, -w);
+  // Assembled column by column in place of a triplet list: each column's entries are listed in
+  // triangle order, then sorted by row (stably) and summed, so that every sum runs in the order
+  // a triplet assembly would add it up.
+  struct Entry {
+    int row;
+    double value;
+  };
+  std::vector<int> start(static_cast<std::size_t>(n) + 1, 1);  // every column holds its diagonal
+  auto each_half_edge = [&](auto&& visit) {
+    for (Eigen::Index t = 0; t < mesh.triangle_count(); ++t) {
+      if (weights.kind[static_cast<std::size_t>(t)] == ElementKind::Ignored) continue;
+      for (int k = 0; k < 3; ++k) {
+        const int i = mesh.triangles(t, (k + 1) % 3);
+        const int j = mesh.triangles(t, (k + 2) % 3);
+        const double w = weights.half_cotangent(t, k);
+        visit(i, j, -w);
+        visit(j, i, -w);
+      }
     }
-  }
-  // Explicit diagonal entries (filled below) so that every vertex has one, even an isolated one.
-  for (Eigen::Index v = 0; v < n; ++v) entries.emplace_back(static_cast<int>(v), static_cast<int>(v), 0.0);
-  Eigen::SparseMatrix<double> laplacian(n, n);
-  laplacian.setFromTriplets(entries.begin(), entries.end());
-  laplacian.makeCompressed();
-  // Diagonal = −(sum of the off-diagonals): rows sum to zero exactly, independent of round-off
-  // in the per-triangle accumulation.
-  for (Eigen::Index col = 0; col < n; ++col) {
-    double off_diagonal_sum = 0.0;
-    double* diagonal = nullptr;
-    for (Eigen::SparseMatrix<double>::InnerIterator it(laplacian, col); it; ++it) {
-      if (it.row() == col) diagonal = &it.valueRef();
-      else off_diagonal_sum += it.value();
+  };
+  each_half_edge([&](int row, int col, double) {
+    (void)row;
+    ++start[static_cast<std::size_t>(col) + 1];
+  });
+  start[0] = 0;
+  std::partial_sum(start.begin(), start.end(), start.begin());
+  std::vector<Entry> entries(static_cast<std::size_t>(start.back()));
+  std::vector<int> next(start.begin(), start.end() - 1);
+  each_half_edge([&](int row, int col, double value) { entries[static_cast<std::size_t>(next[static_cast<std::size_t>(col)]++)] = {row, value}; });
+  for (Eigen::Index col = 0; col < n; ++col) entries[static_cast<std::size_t>(next[static_cast<std::size_t>(col)])] = {static_cast<int>(col), 0.0};
+
+  std::vector<int> kept(static_cast<std::size_t>(n));
+  tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, n, 2048), [&](const tbb::blocked_range<Eigen::Index>& range) {
+    for (Eigen::Index col = range.begin(); col != range.end(); ++col) {
+      Entry* first = entries.data() + start[static_cast<std::size_t>(col)];
+      Entry* last = entries.data() + start[static_cast<std::size_t>(col) + 1];
+      std::stable_sort(first, last, [](const Entry& a, const Entry& b) { return a.row < b.row; });
+      Entry* out = first;
+      for (Entry* in = first + 1; in != last; ++in) {
+        if (in->row == out->row) out->value += in->value;
+        else *++out = *in;
+      }
+      kept[static_cast<std::size_t>(col)] = static_cast<int>(out - first) + 1;
     }
-    *diagonal = -off_diagonal_sum;
-  }
+  });
+  Eigen::SparseMatrix<double> laplacian(n, n);  // compressed, no entries yet
+  laplacian.resizeNonZeros(std::accumulate(kept.begin(), kept.end(), Eigen::Index{0}));
+  int* outer = laplacian.outerIndexPtr();
+  outer[0] = 0;
+  for (Eigen::Index col = 0; col < n; ++col) outer[col + 1] = outer[col] + kept[static_cast<std::size_t>(col)];
+  tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, n, 2048), [&](const tbb::blocked_range<Eigen::Index>& range) {
+    for (Eigen::Index col = range.begin(); col != range.end(); ++col) {
+      const Entry* first = entries.data() + start[static_cast<std::size_t>(col)];
+      double off_diagonal_sum = 0.0;
+      int diagonal = -1;
+      for (int k = 0; k < kept[static_cast<std::size_t>(col)]; ++k) {
+        const int slot = outer[col] + k;
+        laplacian.innerIndexPtr()[slot] = first[k].row;
+        laplacian.valuePtr()[slot] = first[k].value;
+        if (first[k].row == col) diagonal = slot;
+        else off_diagonal_sum += first[k].value;
+      }
+      // Diagonal = −(sum of the off-diagonals): rows sum to zero exactly, independent of
+      // round-off in the per-triangle accumulation.
+      laplacian.valuePtr()[diagonal] = -off_diagonal_sum;
+    }
+  });
   return laplacian;
 }
 
