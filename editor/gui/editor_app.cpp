@@ -211,6 +211,7 @@ void EditorApp::shutdown() {
   if (context_) vkDeviceWaitIdle(context_->device());
   document_.reset();  // stops its threads before the publisher goes
   load_.abandon();
+  proxy_task_.abandon();  // its end wakes the window system: done before that goes
   publisher_.reset();
   if (imgui_vulkan_started_) ImGui_ImplVulkan_Shutdown();
   if (imgui_started_) {

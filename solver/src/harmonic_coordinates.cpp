@@ -14,7 +14,8 @@ Eigen::MatrixXd harmonic_coordinates(const DirichletSystem& system, const Vertex
     values(markers[static_cast<std::size_t>(j)], j) = 1.0;
   }
   system.solve(values);
-  return values.cwiseMax(0.0).cwiseMin(1.0);
+  values = values.cwiseMax(0.0).cwiseMin(1.0);  // in place: coefficient-wise, no temporary
+  return values;
 }
 
 }  // namespace hdeform
