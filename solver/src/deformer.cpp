@@ -1,6 +1,7 @@
 #include "hdeform/deformer.h"
 
 #include <tbb/flow_graph.h>
+#include <tbb/parallel_sort.h>
 #include <tbb/task_arena.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_invoke.h>
@@ -291,7 +292,7 @@ void Deformer::prepare_update_triangles() {
     }
     if (row != std::numeric_limits<int>::max()) first_row.emplace_back(row, static_cast<int>(t));
   }
-  std::sort(first_row.begin(), first_row.end());
+  tbb::parallel_sort(first_row.begin(), first_row.end());
   const auto count = static_cast<Eigen::Index>(first_row.size());
   update_triangles_.resize(first_row.size());
   Mesh update_mesh{rest_.positions, Eigen::MatrixXi(count, 3)};
