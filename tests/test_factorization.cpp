@@ -112,6 +112,28 @@ TEST(TreeFactorization, IsBitIdenticalOnAnyNumberOfThreads) {
   EXPECT_EQ(one, three);
 }
 
+// Many columns (harmonic coordinates: one per marker) are solved as whole solves side by side,
+// a run of eight-column kernels per thread; each column comes out as a solve of its own kernel
+// alone gives it, bit for bit, on any number of threads.
+TEST(TreeFactorization, ManyColumnsSideBySideGiveEachKernelsOwnSolve) {
+  const auto matrix = split_matrix();
+  const int columns = 44;  // five full kernels and one of four
+  const Eigen::MatrixXd rhs = random_matrix(matrix.rows(), columns, 17);
+  for (const int threads : {2, 3}) {
+    tbb::task_arena arena(threads);
+    arena.execute([&] {
+      SparseCholesky factor;
+      factor.factor(matrix, SolverBackend::Tree);
+      const Eigen::MatrixXd together = factor.solve(rhs);
+      for (int first = 0; first < columns; first += 8) {
+        const int width = std::min(8, columns - first);
+        EXPECT_EQ(together.middleCols(first, width), factor.solve(rhs.middleCols(first, width))) << "columns from " << first << ", " << threads << " threads";
+      }
+      EXPECT_LE((matrix * together - rhs).norm() / rhs.norm(), 1e-10);
+    });
+  }
+}
+
 TEST(TreeFactorization, AgreesWithSequentialEigenAndADenseSolve) {
   const auto matrix = split_matrix();
   const Eigen::MatrixXd rhs = random_matrix(matrix.rows(), 2, 12);

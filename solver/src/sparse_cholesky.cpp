@@ -375,19 +375,20 @@ void SparseCholesky::solve_block(double* block, int columns, int stride) const {
   const Factor& f = *factor_;
   const detail::FactorPattern& pattern = f.analysis->pattern;
   const auto& subtrees = pattern.schedule.subtrees;
-  for (int first = 0; first < columns; first += kMaxKernelColumns) {
+  // One kernel's columns at a time: the subtrees' sweeps side by side (as in a drag's three or
+  // five columns), or, with `side_by_side` false, one after the other on this thread.
+  auto solve_columns = [&](int first, bool side_by_side) {
     const Sweeps& sweeps = kSweeps[std::min(kMaxKernelColumns, columns - first) - 1];
     double* y = block + first;
     // Each sweep of each part is an event of the trace, on the thread that ran it.
     auto each_subtree = [&](const char* name, auto&& sweep) {
       if (subtrees.empty()) return;
-      tbb::parallel_for(
-          std::size_t{0}, subtrees.size(),
-          [&](std::size_t part) {
-            const trace::Scope traced(name, "solve", static_cast<std::int64_t>(part));
-            sweep(subtrees[part]);
-          },
-          tbb::static_partitioner());
+      auto one = [&](std::size_t part) {
+        const trace::Scope traced(name, "solve", static_cast<std::int64_t>(part));
+        sweep(subtrees[part]);
+      };
+      if (side_by_side) tbb::parallel_for(std::size_t{0}, subtrees.size(), one, tbb::static_partitioner());
+      else for (std::size_t part = 0; part < subtrees.size(); ++part) one(part);
     };
     auto forward = [&](std::span<const int> part) {
       sweeps.forward(pattern.row_start.data(), pattern.row_column.data(), f.row_value.data(), part, y, stride);
@@ -403,7 +404,19 @@ void SparseCholesky::solve_block(double* block, int columns, int stride) const {
       backward(pattern.schedule.top);
     }
     each_subtree("backward sweep, subtree", backward);
+  };
+  const int kernels = (columns + kMaxKernelColumns - 1) / kMaxKernelColumns;
+  const int threads = tbb::this_task_arena::max_concurrency();
+  if (threads > 1 && kernels >= 2 * threads) {
+    // Many columns (harmonic coordinates: one per marker): whole solves side by side, the top
+    // included, each thread a contiguous run of kernels so that two threads write the same
+    // cache lines only where their runs meet. Every column's arithmetic is the same either way.
+    tbb::parallel_for(tbb::blocked_range<int>(0, kernels), [&](const tbb::blocked_range<int>& range) {
+      for (int kernel = range.begin(); kernel != range.end(); ++kernel) solve_columns(kernel * kMaxKernelColumns, false);
+    }, tbb::static_partitioner());
+    return;
   }
+  for (int first = 0; first < columns; first += kMaxKernelColumns) solve_columns(first, true);
 }
 
 Eigen::MatrixXd SparseCholesky::solve(const Eigen::MatrixXd& rhs) const {
