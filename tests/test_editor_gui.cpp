@@ -17,7 +17,11 @@ TEST_F(EditorGui, PaintDragAndSaveGiveTheBatchReplayAndTheScreenShowsTheOffscree
   editor.wait_for("opened");
   ASSERT_NO_FATAL_FAILURE(find_window());
   const Eigen::Vector2f tip = paint_sink_and_handle(editor);
+  const auto drag_events = editor.event_count();
   grab_and_drag(tip, {90.0f, -40.0f});
+  // The picture below is of the saved (refined) result: taken once the screen shows it, not an
+  // iteration on the way there.
+  editor.wait_for("refined", 60s, drag_events);
   const json saved = save(editor);
   ASSERT_FALSE(saved.is_null());
   const auto screenshot_events = editor.event_count();

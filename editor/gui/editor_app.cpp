@@ -300,6 +300,14 @@ void EditorApp::step() {
       view_dirty_ = true;
       announce_solver_state();
     }
+    // A refinement that settles is announced once: scripts and tests wait for it before they
+    // take a picture of the result (until then each iteration replaces the last on screen).
+    const bool settled = document_->refine() && document_->refinement().status.converged;
+    if (settled && !refinement_settled_) {
+      const auto status = document_->refinement().status;
+      print_json_line({{"event", "refined"}, {"iterations", status.iterations}, {"energy", status.energy}});
+    }
+    refinement_settled_ = settled;
     if (document_->solver_state() == Document::SolverState::Building && build_started_ == Clock::time_point{}) build_started_ = Clock::now();
     if (document_->solver_state() != Document::SolverState::Building) build_started_ = {};
   }

@@ -382,6 +382,7 @@ class EditorApp {
   BackgroundTask<Loaded> load_;  // reading a mesh or session and replaying it
   BackgroundTask<Eigen::MatrixXi> proxy_task_;  // simplifying the mesh just opened (CPU device)
   MotionDetail motion_detail_;
+  bool refinement_settled_ = false;  // the latest publication's refinement converged (announced)
   Eigen::Index proxy_triangle_count_ = 0;
   // Starts simplifying a newly opened mesh, on a CPU device with --proxy auto; installs the proxy
   // when it is done (finish_proxy, each frame).
