@@ -77,7 +77,7 @@ TEST_F(EditorGui, TypedValuesAreUndoableStepsAndReachTheRecoveryFile) {
 TEST_F(EditorGui, AfterSigtermTheNextStartOffersTheSessionBesideTheRequestedMesh) {
   const auto recovery = dir.file("recovery.json");
   const std::vector<std::string> common{"--size", std::to_string(kWidth) + "x" + std::to_string(kHeight), "--recovery-file", recovery.string(),
-                                        "--restore", "ask", "--validation"};
+                                        "--restore", "ask", "--screenshot-dir", dir.path().string(), "--validation"};
   std::vector<std::string> first{"shape:cactus"}, second{"shape:bar"};
   first.insert(first.end(), common.begin(), common.end());
   second.insert(second.end(), common.begin(), common.end());
