@@ -302,12 +302,15 @@ void EditorApp::step() {
     }
     // A refinement that settles is announced once: scripts and tests wait for it before they
     // take a picture of the result (until then each iteration replaces the last on screen).
-    const bool settled = document_->refine() && document_->refinement().status.converged;
-    if (settled && !refinement_settled_) {
+    if (document_->refine()) {
       const auto status = document_->refinement().status;
-      print_json_line({{"event", "refined"}, {"iterations", status.iterations}, {"energy", status.energy}});
+      if (status.converged && !refinement_settled_) {
+        print_json_line({{"event", "refined"}, {"iterations", status.iterations}, {"energy", status.energy}});
+      }
+      refinement_settled_ = status.converged;
+    } else {
+      refinement_settled_ = false;
     }
-    refinement_settled_ = settled;
     if (document_->solver_state() == Document::SolverState::Building && build_started_ == Clock::time_point{}) build_started_ = Clock::now();
     if (document_->solver_state() != Document::SolverState::Building) build_started_ = {};
   }
