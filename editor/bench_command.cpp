@@ -141,6 +141,7 @@ class BenchCommand final : public BatchCommand {
                              {"vertices", mesh.vertex_count()},
                              {"triangles", mesh.triangle_count()},
                              {"threads", solver.effective_threads()},
+                             {"allocator", allocator_name()},
                              {"steps", steps_},
                              {"read_ms", read_ms}};
     if (subdivide_ > 0) {

@@ -230,6 +230,18 @@ double resident_mb() {
   return static_cast<double>(resident) * static_cast<double>(sysconf(_SC_PAGESIZE)) / (1024.0 * 1024.0);
 }
 
+// Weak: resolved only when jemalloc is in the process.
+extern "C" int mallctl(const char* name, void* old_value, std::size_t* old_size, void* new_value, std::size_t new_size)
+    __attribute__((weak));
+
+std::string allocator_name() {
+  if (mallctl == nullptr) return "glibc";
+  const char* version = nullptr;
+  std::size_t size = sizeof(version);
+  if (mallctl("version", static_cast<void*>(&version), &size, nullptr, 0) != 0 || version == nullptr) return "jemalloc";
+  return "jemalloc " + std::string(version);
+}
+
 void print_json_line(const nlohmann::json& value) {
   // Whole lines, also when the editor's threads report at once.
   static std::mutex mutex;

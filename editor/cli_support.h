@@ -127,6 +127,9 @@ void refuse_unwritable_mesh_output(const std::string& option, const std::string&
 double peak_rss_mb();
 // Resident set size now, in MB (0 where /proc is unavailable).
 double resident_mb();
+// The allocator this process runs with: "jemalloc VERSION" when it was linked or preloaded,
+// else "glibc" (set-up times depend on it: see editor/main.cpp).
+std::string allocator_name();
 
 // Exactly one JSON object on one line of stdout (safe from any thread).
 void print_json_line(const nlohmann::json& value);
