@@ -13,6 +13,7 @@
 #include "hdeform/shapes.h"
 #include "hdeform/sparse_cholesky.h"
 #include "test_support.h"
+#include "tree_factorization.h"
 
 namespace hdeform {
 namespace {
@@ -74,9 +75,22 @@ TEST(SparseCholesky, BackendsAgree) {
 TEST(SparseCholesky, RejectsAnIndefiniteMatrix) {
   const auto laplacian = cotangent_laplacian(make_shape(ShapeKind::Sphere, 8).mesh);  // singular: constants
   Eigen::SparseMatrix<double> indefinite = -laplacian;
-  for (const auto backend : backends()) {
-    SparseCholesky factor;
-    EXPECT_THROW(factor.factor(indefinite, backend), SolveError) << to_string(backend);
+  // Small ones whose last pivot is the bad one: negative, zero, and negative only after an update.
+  auto dense = [](std::initializer_list<double> values, int n) {
+    Eigen::MatrixXd matrix(n, n);
+    auto it = values.begin();
+    for (int i = 0; i < n; ++i) {
+      for (int j = 0; j < n; ++j) matrix(i, j) = *it++;
+    }
+    return Eigen::SparseMatrix<double>(matrix.sparseView());
+  };
+  Eigen::SparseMatrix<double> zero(1, 1);
+  zero.insert(0, 0) = 0.0;
+  for (const auto& matrix : {indefinite, dense({-1.0}, 1), zero, dense({1.0, 2.0, 2.0, 1.0}, 2)}) {
+    for (const auto backend : backends()) {
+      SparseCholesky factor;
+      EXPECT_THROW(factor.factor(matrix, backend), SolveError) << to_string(backend) << ", " << matrix.rows() << " unknowns";
+    }
   }
 }
 
@@ -145,6 +159,115 @@ TEST(TreeFactorization, AgreesWithSequentialEigenAndADenseSolve) {
   EXPECT_GT((tree - expected).norm(), 0.0);  // summed in another order: really two computations
   // The residual of the factor itself, against the matrix.
   EXPECT_LE((matrix * tree - rhs).norm() / rhs.norm(), 1e-10);
+}
+
+// A grid's Laplacian (shifted to be definite) whose every 30th vertex is also joined to every
+// other such vertex: the clique is eliminated last, so the top of the elimination tree is one
+// wide dense supernode updated by wide separators, which takes the blocked paths of the
+// factorization that a surface mesh of this size would not reach. `pivot` is added to the
+// diagonal of one clique vertex.
+Eigen::SparseMatrix<double> matrix_with_a_dense_top(double pivot = 0.0) {
+  constexpr int side = 72, step = 30;
+  const int n = side * side;
+  std::vector<Eigen::Triplet<double>> entries;
+  auto join = [&](int a, int b, double weight) {
+    entries.emplace_back(a, b, -weight);
+    entries.emplace_back(b, a, -weight);
+    entries.emplace_back(a, a, weight);
+    entries.emplace_back(b, b, weight);
+  };
+  for (int y = 0; y < side; ++y) {
+    for (int x = 0; x < side; ++x) {
+      const int v = y * side + x;
+      if (x + 1 < side) join(v, v + 1, 1.0 + 0.1 * ((v * 7) % 5));
+      if (y + 1 < side) join(v, v + side, 1.0 + 0.1 * ((v * 3) % 4));
+      entries.emplace_back(v, v, 1e-2);
+    }
+  }
+  for (int a = 0; a < n; a += step) {
+    for (int b = a + step; b < n; b += step) join(a, b, 1e-2);
+  }
+  entries.emplace_back(step * 40, step * 40, pivot);
+  Eigen::SparseMatrix<double> matrix(n, n);
+  matrix.setFromTriplets(entries.begin(), entries.end());
+  return matrix;
+}
+
+// The supernodal analysis and factorization against Eigen's simplicial LLᵀ of the same permuted
+// matrix, entry by entry in both layouts: the same pattern, and the same values to rounding.
+TEST(TreeFactorization, SupernodesGiveTheSimplicialFactorEntryByEntry) {
+  for (const auto& matrix : {matrix_with_a_dense_top(), split_matrix()}) {
+    SparseCholesky tree;
+    tree.factor(matrix, SolverBackend::Tree);
+    const auto& factor_row = tree.factor_row();
+    const auto n = matrix.rows();
+    std::vector<Eigen::Triplet<double>> permuted_entries;
+    for (int c = 0; c < matrix.outerSize(); ++c) {
+      for (Eigen::SparseMatrix<double>::InnerIterator it(matrix, c); it; ++it) {
+        permuted_entries.emplace_back(factor_row[static_cast<std::size_t>(it.row())], factor_row[static_cast<std::size_t>(c)], it.value());
+      }
+    }
+    Eigen::SparseMatrix<double> permuted(n, n);
+    permuted.setFromTriplets(permuted_entries.begin(), permuted_entries.end());
+    const Eigen::SimplicialLLT<Eigen::SparseMatrix<double>, Eigen::Lower, Eigen::NaturalOrdering<int>> reference(permuted);
+    ASSERT_EQ(reference.info(), Eigen::Success);
+    const Eigen::SparseMatrix<double> lower = reference.matrixL();
+    const Eigen::SparseMatrix<double, Eigen::RowMajor> by_rows = lower;
+    const double largest = lower.coeffs().cwiseAbs().maxCoeff();
+
+    const detail::PermutedMatrix ours = detail::permuted_matrix(matrix, factor_row);
+    const detail::FactorPattern pattern = detail::analyse_pattern(ours, 2);
+    std::vector<double> row_value, column_value;
+    ASSERT_TRUE(detail::factor_numeric(ours, pattern, row_value, column_value));
+    ASSERT_EQ(pattern.nonzeros(), static_cast<std::size_t>(lower.nonZeros()));
+    double column_error = 0.0, row_error = 0.0;
+    for (int j = 0; j < n; ++j) {
+      ASSERT_EQ(pattern.column_length(j), static_cast<std::size_t>(lower.outerIndexPtr()[j + 1] - lower.outerIndexPtr()[j])) << "column " << j;
+      for (int p = lower.outerIndexPtr()[j], q = 0; p < lower.outerIndexPtr()[j + 1]; ++p, ++q) {
+        const std::size_t at = pattern.column_begin[static_cast<std::size_t>(j)] + static_cast<std::size_t>(q);
+        ASSERT_EQ(pattern.column_row[at], lower.innerIndexPtr()[p]) << "column " << j;
+        column_error = std::max(column_error, std::abs(column_value[at] - lower.valuePtr()[p]));
+      }
+      for (int p = by_rows.outerIndexPtr()[j], at = pattern.row_start[static_cast<std::size_t>(j)]; p < by_rows.outerIndexPtr()[j + 1]; ++p, ++at) {
+        ASSERT_EQ(pattern.row_column[static_cast<std::size_t>(at)], by_rows.innerIndexPtr()[p]) << "row " << j;
+        row_error = std::max(row_error, std::abs(row_value[static_cast<std::size_t>(at)] - by_rows.valuePtr()[p]));
+      }
+    }
+    EXPECT_LE(column_error, 1e-13 * largest);
+    EXPECT_LE(row_error, 1e-13 * largest);
+  }
+
+  // The dense top really took the blocked paths, and the cactus the plain ones.
+  const detail::PermutedMatrix dense = detail::permuted_matrix(matrix_with_a_dense_top(), [] {
+    SparseCholesky tree;
+    tree.factor(matrix_with_a_dense_top(), SolverBackend::Tree);
+    return tree.factor_row();
+  }());
+  const detail::Supernodes& super = detail::analyse_pattern(dense, 2).supernodes;
+  int widest = 0;
+  long largest_update = 0;
+  for (int s = 0; s < super.count(); ++s) widest = std::max(widest, super.width(s));
+  const detail::FactorPattern dense_pattern = detail::analyse_pattern(dense, 2);
+  for (const auto& update : dense_pattern.supernodes.updates) {
+    const int from = update.from;
+    const long length = static_cast<long>(dense_pattern.column_length(dense_pattern.supernodes.first_column[static_cast<std::size_t>(from)])) - update.first;
+    largest_update = std::max(largest_update, static_cast<long>(dense_pattern.supernodes.width(from)) * (update.last - update.first) * length);
+  }
+  EXPECT_GE(widest, detail::kBlockedPanelWidth);
+  EXPECT_GE(largest_update, detail::kBlockedUpdateWork);
+}
+
+TEST(TreeFactorization, WideSupernodesAreBitIdenticalOnAnyNumberOfThreadsAndDefiniteOnlyWhenTheMatrixIs) {
+  const auto matrix = matrix_with_a_dense_top();
+  const Eigen::MatrixXd rhs = random_matrix(matrix.rows(), 3, 21);
+  const Eigen::MatrixXd one = solve_in_arena(matrix, rhs, 1);
+  EXPECT_EQ(one, solve_in_arena(matrix, rhs, 2));
+  EXPECT_EQ(one, solve_in_arena(matrix, rhs, 3));
+  const Eigen::SimplicialLLT<Eigen::SparseMatrix<double>> reference(matrix);
+  EXPECT_LE(test::relative_difference(one, Eigen::MatrixXd(reference.solve(rhs))), 1e-11);
+  // A negative pivot in the clique, eliminated in the wide top supernode.
+  SparseCholesky factor;
+  EXPECT_THROW(factor.factor(matrix_with_a_dense_top(-100.0), SolverBackend::Tree), SolveError);
 }
 
 TEST(TreeFactorization, ReusedAnalysisGivesTheFreshSolution) {

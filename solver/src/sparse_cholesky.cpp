@@ -269,11 +269,11 @@ std::vector<int> rows_of_ranks(std::span<const int> rank) {
 void factor_with_tree(const Eigen::SparseMatrix<double>& matrix, std::span<const int> ordering,
                       const std::shared_ptr<const SparseCholesky::Analysis>& reuse, SparseCholesky::Factor& factor) {
   std::shared_ptr<const SparseCholesky::Analysis> analysis;
-  detail::PermutedUpper upper;
+  detail::PermutedMatrix permuted;
   if (reuse && reuse->analysed(matrix)) {
     const trace::Scope traced("permuted matrix (analysis reused)", "set-up");
     analysis = reuse;
-    upper = detail::permuted_upper(matrix, analysis->factor_row);
+    permuted = detail::permuted_matrix(matrix, analysis->factor_row);
     factor.reused_analysis = true;
   } else {
     auto fresh = std::make_shared<SparseCholesky::Analysis>();
@@ -292,14 +292,14 @@ void factor_with_tree(const Eigen::SparseMatrix<double>& matrix, std::span<const
     }
     fresh->matrix_outer.assign(pattern_of->outerIndexPtr(), pattern_of->outerIndexPtr() + matrix.cols() + 1);
     fresh->matrix_inner.assign(pattern_of->innerIndexPtr(), pattern_of->innerIndexPtr() + pattern_of->nonZeros());
-    upper = detail::permuted_upper(matrix, fresh->factor_row);
-    fresh->pattern = detail::analyse_pattern(upper, tbb::this_task_arena::max_concurrency());
+    permuted = detail::permuted_matrix(matrix, fresh->factor_row);
+    fresh->pattern = detail::analyse_pattern(permuted, tbb::this_task_arena::max_concurrency());
     analysis = std::move(fresh);
   }
   {
     const trace::Scope traced("numeric factorization", "set-up");
-    if (!detail::factor_numeric(upper, analysis->pattern, factor.row_value, factor.column_value)) {
-      throw SolveError("the Laplacian system is not positive definite (the elimination-tree factorization failed)");
+    if (!detail::factor_numeric(permuted, analysis->pattern, factor.row_value, factor.column_value)) {
+      throw SolveError("the Laplacian system is not positive definite (the supernodal factorization failed)");
     }
   }
   factor.analysis = std::move(analysis);

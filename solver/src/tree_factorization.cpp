@@ -4,42 +4,22 @@
 
 #include <algorithm>
 #include <atomic>
-#include <cmath>
 #include <numeric>
 #include <utility>
+
 
 namespace hdeform::detail {
 namespace {
 
-// Runs `row_body(workspace, k)` for every row of a schedule: the subtrees concurrently (one
-// workspace each, rows ascending), then the top rows ascending on the calling thread with the
-// first workspace. `stop` ends the work early (checked between rows).
-template <class Workspace, class RowBody>
-void for_each_row(const EliminationSchedule& schedule, std::vector<Workspace>& workspaces, const std::atomic<bool>& stop,
-                  RowBody&& row_body) {
-  tbb::parallel_for(
-      std::size_t{0}, schedule.subtrees.size(),
-      [&](std::size_t part) {
-        for (const int k : schedule.subtrees[part]) {
-          if (stop.load(std::memory_order_relaxed)) return;
-          row_body(workspaces[part], k);
-        }
-      },
-      tbb::static_partitioner());
-  for (const int k : schedule.top) {
-    if (stop.load(std::memory_order_relaxed)) return;
-    row_body(workspaces[0], k);
-  }
-}
-
-// The elimination tree of the upper triangle (Liu's algorithm with path compression).
-std::vector<int> elimination_tree(const PermutedUpper& upper) {
-  const int n = static_cast<int>(upper.start.size()) - 1;
+// The elimination tree (Liu's algorithm with path compression), from the entries above the
+// diagonal.
+std::vector<int> elimination_tree(const PermutedMatrix& matrix) {
+  const int n = static_cast<int>(matrix.start.size()) - 1;
   std::vector<int> parent(static_cast<std::size_t>(n), -1);
   std::vector<int> ancestor(static_cast<std::size_t>(n), -1);
   for (int k = 0; k < n; ++k) {
-    for (int p = upper.start[static_cast<std::size_t>(k)]; p < upper.start[static_cast<std::size_t>(k) + 1]; ++p) {
-      for (int i = upper.row[static_cast<std::size_t>(p)]; i != -1 && i < k;) {
+    for (int p = matrix.start[static_cast<std::size_t>(k)]; p < matrix.diagonal[static_cast<std::size_t>(k)]; ++p) {
+      for (int i = matrix.row[static_cast<std::size_t>(p)]; i != -1 && i < k;) {
         const int next = ancestor[static_cast<std::size_t>(i)];
         ancestor[static_cast<std::size_t>(i)] = k;
         if (next == -1) parent[static_cast<std::size_t>(i)] = k;
@@ -50,18 +30,96 @@ std::vector<int> elimination_tree(const PermutedUpper& upper) {
   return parent;
 }
 
-// Visits the pattern of row k of L below the diagonal (the etree paths from the entries of A's
-// column k up to k), in no particular order. `mark` is a per-thread array, initially all −1.
-template <class Visit>
-void visit_row_pattern(const PermutedUpper& upper, const std::vector<int>& parent, int k, std::vector<int>& mark, Visit&& visit) {
-  mark[static_cast<std::size_t>(k)] = k;
-  for (int p = upper.start[static_cast<std::size_t>(k)]; p < upper.start[static_cast<std::size_t>(k) + 1]; ++p) {
-    for (int i = upper.row[static_cast<std::size_t>(p)]; i < k && mark[static_cast<std::size_t>(i)] != k;
-         i = parent[static_cast<std::size_t>(i)]) {
-      mark[static_cast<std::size_t>(i)] = k;
-      visit(i);
+// Children of every node of a tree (parent[j] > j or −1), ascending: node p's children are
+// children[child_start[p] .. child_start[p+1]).
+struct Children {
+  std::vector<int> child_start;
+  std::vector<int> children;
+};
+Children children_of(std::span<const int> parent) {
+  const std::size_t n = parent.size();
+  Children tree;
+  tree.child_start.assign(n + 1, 0);
+  for (const int p : parent) {
+    if (p >= 0) ++tree.child_start[static_cast<std::size_t>(p) + 1];
+  }
+  for (std::size_t j = 0; j < n; ++j) tree.child_start[j + 1] += tree.child_start[j];
+  tree.children.resize(static_cast<std::size_t>(tree.child_start[n]));
+  std::vector<int> fill(tree.child_start.begin(), tree.child_start.end() - 1);
+  for (std::size_t j = 0; j < n; ++j) {
+    if (const int p = parent[j]; p >= 0) tree.children[static_cast<std::size_t>(fill[static_cast<std::size_t>(p)]++)] = static_cast<int>(j);
+  }
+  return tree;
+}
+
+// The nodes of a tree in postorder (children in ascending order before their parent).
+std::vector<int> postorder(std::span<const int> parent) {
+  const Children tree = children_of(parent);
+  std::vector<int> order;
+  order.reserve(parent.size());
+  std::vector<std::pair<int, int>> stack;  // node, next child to visit
+  for (std::size_t root = 0; root < parent.size(); ++root) {
+    if (parent[root] >= 0) continue;
+    stack.emplace_back(static_cast<int>(root), tree.child_start[root]);
+    while (!stack.empty()) {
+      auto& [node, next] = stack.back();
+      if (next < tree.child_start[static_cast<std::size_t>(node) + 1]) {
+        const int child = tree.children[static_cast<std::size_t>(next++)];
+        stack.emplace_back(child, tree.child_start[static_cast<std::size_t>(child)]);
+      } else {
+        order.push_back(node);
+        stack.pop_back();
+      }
     }
   }
+  return order;
+}
+
+// The number of entries in each column of L, diagonal included, in near-linear time in the
+// entries of the matrix (Gilbert, Ng and Peyton 1994, as in Davis's CSparse): column j's count
+// is the number of row subtrees it lies in, counted with the skeleton of the matrix and the
+// least common ancestors of consecutive leaves of each row subtree.
+std::vector<int> column_counts(const PermutedMatrix& matrix, std::span<const int> parent) {
+  const std::size_t n = parent.size();
+  const std::vector<int> post = postorder(parent);
+  std::vector<int> delta(n), first(n, -1), max_first(n, -1), previous_leaf(n, -1), ancestor(n);
+  for (std::size_t k = 0; k < n; ++k) {
+    int j = post[k];
+    delta[static_cast<std::size_t>(j)] = first[static_cast<std::size_t>(j)] == -1 ? 1 : 0;  // 1 for a leaf
+    for (; j != -1 && first[static_cast<std::size_t>(j)] == -1; j = parent[static_cast<std::size_t>(j)]) {
+      first[static_cast<std::size_t>(j)] = static_cast<int>(k);
+    }
+  }
+  std::iota(ancestor.begin(), ancestor.end(), 0);
+  for (std::size_t k = 0; k < n; ++k) {
+    const int j = post[k];
+    const auto column = static_cast<std::size_t>(j);
+    if (parent[column] != -1) --delta[static_cast<std::size_t>(parent[column])];
+    // Row subtrees of the rows i > j with an entry in column j: is j a leaf of i's, and where
+    // does it meet the previous leaf?
+    for (int p = matrix.diagonal[column] + 1; p < matrix.start[column + 1]; ++p) {
+      const auto i = static_cast<std::size_t>(matrix.row[static_cast<std::size_t>(p)]);
+      if (first[column] <= max_first[i]) continue;  // j is not a leaf of row i's subtree
+      max_first[i] = first[column];
+      const int previous = previous_leaf[i];
+      previous_leaf[i] = j;
+      ++delta[column];
+      if (previous == -1) continue;
+      int q = previous;
+      while (q != ancestor[static_cast<std::size_t>(q)]) q = ancestor[static_cast<std::size_t>(q)];
+      for (int node = previous; node != q;) {
+        const int next = ancestor[static_cast<std::size_t>(node)];
+        ancestor[static_cast<std::size_t>(node)] = q;
+        node = next;
+      }
+      --delta[static_cast<std::size_t>(q)];  // the overlap of the two leaves' paths
+    }
+    if (parent[column] != -1) ancestor[column] = parent[column];
+  }
+  for (std::size_t j = 0; j < n; ++j) {
+    if (parent[j] != -1) delta[static_cast<std::size_t>(parent[j])] += delta[j];
+  }
+  return delta;
 }
 
 }  // namespace
@@ -75,23 +133,12 @@ EliminationSchedule split_elimination_tree(std::span<const int> parent, std::spa
     return schedule;
   }
   std::vector<double> subtree_work(work.begin(), work.end());
-  std::vector<int> child_start(static_cast<std::size_t>(n) + 1, 0);
   double total = 0.0;
   for (int j = 0; j < n; ++j) {
     total += work[static_cast<std::size_t>(j)];
-    if (const int p = parent[static_cast<std::size_t>(j)]; p >= 0) {
-      subtree_work[static_cast<std::size_t>(p)] += subtree_work[static_cast<std::size_t>(j)];
-      ++child_start[static_cast<std::size_t>(p) + 1];
-    }
+    if (const int p = parent[static_cast<std::size_t>(j)]; p >= 0) subtree_work[static_cast<std::size_t>(p)] += subtree_work[static_cast<std::size_t>(j)];
   }
-  for (int j = 0; j < n; ++j) child_start[static_cast<std::size_t>(j) + 1] += child_start[static_cast<std::size_t>(j)];
-  std::vector<int> children(static_cast<std::size_t>(child_start.back()));
-  {
-    std::vector<int> fill(child_start.begin(), child_start.end() - 1);
-    for (int j = 0; j < n; ++j) {
-      if (const int p = parent[static_cast<std::size_t>(j)]; p >= 0) children[static_cast<std::size_t>(fill[static_cast<std::size_t>(p)]++)] = j;
-    }
-  }
+  const Children tree = children_of(parent);
 
   // Proportional splitting: take the largest subtree's root into the top part until every
   // subtree is small enough for an even packing onto the workers.
@@ -109,110 +156,119 @@ EliminationSchedule split_elimination_tree(std::span<const int> parent, std::spa
     heap.pop_back();
     schedule.top.push_back(root);
     top_work += work[static_cast<std::size_t>(root)];
-    for (int c = child_start[static_cast<std::size_t>(root)]; c < child_start[static_cast<std::size_t>(root) + 1]; ++c) {
-      const int child = children[static_cast<std::size_t>(c)];
+    for (int c = tree.child_start[static_cast<std::size_t>(root)]; c < tree.child_start[static_cast<std::size_t>(root) + 1]; ++c) {
+      const int child = tree.children[static_cast<std::size_t>(c)];
       heap.emplace_back(subtree_work[static_cast<std::size_t>(child)], child);
       std::push_heap(heap.begin(), heap.end());
     }
   }
   // Largest first onto the least loaded worker; ties by root index keep it deterministic.
   std::sort(heap.begin(), heap.end(), [](const auto& a, const auto& b) { return a.first != b.first ? a.first > b.first : a.second < b.second; });
-  schedule.subtrees.assign(static_cast<std::size_t>(parts), {});
   std::vector<double> load(static_cast<std::size_t>(parts), 0.0);
-  std::vector<int> stack;
+  // Every node's worker (−1: the top), then each worker's nodes in ascending order: a node's
+  // parent comes after it, so a node takes its parent's worker unless it is a subtree's root.
+  std::vector<int> worker_of(static_cast<std::size_t>(n), -1);
+  std::vector<std::size_t> counts(static_cast<std::size_t>(parts), 0);
   for (const auto& [subtree, root] : heap) {
     const auto worker = static_cast<std::size_t>(std::min_element(load.begin(), load.end()) - load.begin());
     load[worker] += subtree;
-    stack.assign(1, root);
-    while (!stack.empty()) {
-      const int node = stack.back();
-      stack.pop_back();
-      schedule.subtrees[worker].push_back(node);
-      for (int c = child_start[static_cast<std::size_t>(node)]; c < child_start[static_cast<std::size_t>(node) + 1]; ++c) {
-        stack.push_back(children[static_cast<std::size_t>(c)]);
-      }
-    }
+    worker_of[static_cast<std::size_t>(root)] = static_cast<int>(worker);
   }
-  for (auto& subtree : schedule.subtrees) std::sort(subtree.begin(), subtree.end());
+  std::vector<char> in_top(static_cast<std::size_t>(n), 0);
+  for (const int node : schedule.top) in_top[static_cast<std::size_t>(node)] = 1;
+  for (int j = n; j-- > 0;) {
+    const auto node = static_cast<std::size_t>(j);
+    if (in_top[node] != 0) continue;
+    if (worker_of[node] < 0) worker_of[node] = worker_of[static_cast<std::size_t>(parent[node])];
+    ++counts[static_cast<std::size_t>(worker_of[node])];
+  }
+  schedule.subtrees.assign(static_cast<std::size_t>(parts), {});
+  for (int worker = 0; worker < parts; ++worker) schedule.subtrees[static_cast<std::size_t>(worker)].reserve(counts[static_cast<std::size_t>(worker)]);
+  for (int j = 0; j < n; ++j) {
+    if (in_top[static_cast<std::size_t>(j)] == 0) schedule.subtrees[static_cast<std::size_t>(worker_of[static_cast<std::size_t>(j)])].push_back(j);
+  }
   std::sort(schedule.top.begin(), schedule.top.end());
   return schedule;
 }
 
-PermutedUpper permuted_upper(const Eigen::SparseMatrix<double>& matrix, std::span<const int> factor_row) {
+PermutedMatrix permuted_matrix(const Eigen::SparseMatrix<double>& matrix, std::span<const int> factor_row) {
   const auto n = static_cast<std::size_t>(matrix.cols());
   const int* outer = matrix.outerIndexPtr();
   const int* inner = matrix.innerIndexPtr();
   const double* value = matrix.valuePtr();
   const int* nonzeros = matrix.innerNonZeroPtr();  // null when compressed
   auto column_end = [&](std::size_t c) { return nonzeros != nullptr ? outer[c] + nonzeros[c] : outer[c + 1]; };
-  PermutedUpper upper;
-  upper.start.assign(n + 1, 0);
+  PermutedMatrix permuted;
+  permuted.start.assign(n + 1, 0);
+  permuted.diagonal.resize(n);
   tbb::parallel_for(std::size_t{0}, n, [&](std::size_t c) {
-    const int k = factor_row[c];
-    int count = 0;
-    for (int p = outer[c]; p < column_end(c); ++p) count += factor_row[static_cast<std::size_t>(inner[p])] <= k;
-    upper.start[static_cast<std::size_t>(k) + 1] = count;
+    permuted.start[static_cast<std::size_t>(factor_row[c]) + 1] = column_end(c) - outer[c];
   });
-  for (std::size_t k = 0; k < n; ++k) upper.start[k + 1] += upper.start[k];
-  upper.row.resize(static_cast<std::size_t>(upper.start[n]));
-  upper.value.resize(upper.row.size());
+  for (std::size_t k = 0; k < n; ++k) permuted.start[k + 1] += permuted.start[k];
+  permuted.row.resize(static_cast<std::size_t>(permuted.start[n]));
+  permuted.value.resize(permuted.row.size());
   tbb::parallel_for(std::size_t{0}, n, [&](std::size_t c) {
-    const int k = factor_row[c];
-    const auto first = static_cast<std::size_t>(upper.start[static_cast<std::size_t>(k)]);
+    const auto k = static_cast<std::size_t>(factor_row[c]);
+    const auto first = static_cast<std::size_t>(permuted.start[k]);
     std::size_t next = first;
-    for (int p = outer[c]; p < column_end(c); ++p) {
-      const int r = factor_row[static_cast<std::size_t>(inner[p])];
-      if (r <= k) {
-        upper.row[next] = r;
-        upper.value[next++] = value[p];
-      }
+    for (int p = outer[c]; p < column_end(c); ++p, ++next) {
+      permuted.row[next] = factor_row[static_cast<std::size_t>(inner[p])];
+      permuted.value[next] = value[p];
     }
     // Insertion sort by row: a column holds a handful of entries.
     for (std::size_t a = first + 1; a < next; ++a) {
-      for (std::size_t b = a; b > first && upper.row[b - 1] > upper.row[b]; --b) {
-        std::swap(upper.row[b - 1], upper.row[b]);
-        std::swap(upper.value[b - 1], upper.value[b]);
+      for (std::size_t b = a; b > first && permuted.row[b - 1] > permuted.row[b]; --b) {
+        std::swap(permuted.row[b - 1], permuted.row[b]);
+        std::swap(permuted.value[b - 1], permuted.value[b]);
       }
     }
+    std::size_t diagonal = first;
+    while (diagonal < next && permuted.row[diagonal] < static_cast<int>(k)) ++diagonal;
+    permuted.diagonal[k] = static_cast<int>(diagonal);
   });
-  return upper;
+  return permuted;
 }
 
-FactorPattern analyse_pattern(const PermutedUpper& upper, int parts) {
+FactorPattern analyse_pattern(const PermutedMatrix& matrix, int parts) {
   FactorPattern pattern;
-  const int n = static_cast<int>(upper.start.size()) - 1;
+  const int n = static_cast<int>(matrix.start.size()) - 1;
   const auto size = static_cast<std::size_t>(n);
-  pattern.parent = elimination_tree(upper);
-
-  // Every row's pattern, walked once and sorted, in parallel over subtrees (a row's walk stays in
-  // its subtree, so each column's count is touched by one worker at a time). Rows are weighed
-  // alike here: their patterns' lengths are what the walk finds out.
-  const std::vector<double> unit(size, 1.0);
-  const EliminationSchedule walk_schedule = split_elimination_tree(pattern.parent, unit, parts);
-  struct Walk {
-    std::vector<int> mark;
-    std::vector<int> columns;  // the sorted patterns of this worker's rows, one after the other
-  };
-  std::vector<Walk> walks(std::max<std::size_t>(1, walk_schedule.subtrees.size()));
-  for (auto& w : walks) w.mark.assign(size, -1);
-  std::vector<std::size_t> walked_at(size);  // where row k's pattern starts in its worker's list
-  std::vector<int> walker(size);             // and which worker walked it
-  std::vector<int> column_count(size, 1);
-  pattern.row_start.assign(size + 1, 0);
+  pattern.parent = elimination_tree(matrix);
   const std::atomic<bool> never{false};
-  for_each_row(walk_schedule, walks, never, [&](Walk& w, int k) {
-    const std::size_t first = w.columns.size();
-    walked_at[static_cast<std::size_t>(k)] = first;
-    walker[static_cast<std::size_t>(k)] = static_cast<int>(&w - walks.data());
-    visit_row_pattern(upper, pattern.parent, k, w.mark, [&](int j) {
-      w.columns.push_back(j);
-      ++column_count[static_cast<std::size_t>(j)];
-    });
-    std::sort(w.columns.begin() + static_cast<std::ptrdiff_t>(first), w.columns.end());
-    pattern.row_start[static_cast<std::size_t>(k) + 1] = static_cast<int>(w.columns.size() - first) + 1;
-  });
-  for (std::size_t k = 0; k < size; ++k) pattern.row_start[k + 1] += pattern.row_start[k];
-  const auto nonzeros = static_cast<std::size_t>(pattern.row_start[size]);
+
+  const std::vector<int> column_count = column_counts(matrix, pattern.parent);
+  // Supernodes: column j joins column j−1's when j−1's rows below its diagonal are j's rows and j.
+  Supernodes& super = pattern.supernodes;
+  super.first_column.push_back(0);
+  for (int j = 1; j < n; ++j) {
+    const auto column = static_cast<std::size_t>(j);
+    if (pattern.parent[column - 1] != j || column_count[column - 1] != column_count[column] + 1) super.first_column.push_back(j);
+  }
+  super.first_column.push_back(n);
+  if (n == 0) super.first_column.assign(1, 0);
+  const int supernode_count = super.count();
+  super.of_column.resize(size);
+  std::vector<int> super_parent(static_cast<std::size_t>(supernode_count), -1);
+  std::vector<double> super_work(static_cast<std::size_t>(supernode_count), 0.0);
+  for (int s = 0; s < supernode_count; ++s) {
+    const int first = super.first_column[static_cast<std::size_t>(s)], end = super.first_column[static_cast<std::size_t>(s) + 1];
+    const double rows = column_count[static_cast<std::size_t>(first)];
+    double work = 0.0;
+    for (int j = first; j < end; ++j) {
+      super.of_column[static_cast<std::size_t>(j)] = s;
+      const double length = rows - (j - first);
+      work += 0.5 * length * length;  // the updates column j gives and its own division
+    }
+    super_work[static_cast<std::size_t>(s)] = work;
+    super.largest_panel = std::max(super.largest_panel, static_cast<std::size_t>(rows) * static_cast<std::size_t>(end - first));
+  }
+  for (int s = 0; s < supernode_count; ++s) {
+    const int last = super.first_column[static_cast<std::size_t>(s) + 1] - 1;
+    if (const int p = pattern.parent[static_cast<std::size_t>(last)]; p >= 0) super_parent[static_cast<std::size_t>(s)] = super.of_column[static_cast<std::size_t>(p)];
+  }
+  super.schedule = split_elimination_tree(super_parent, super_work, parts);
+
+  // The column layout, columns stored last to first.
   pattern.column_begin.resize(size);
   pattern.column_end.resize(size);
   for (std::size_t j = size, next = 0; j-- > 0;) {
@@ -220,94 +276,143 @@ FactorPattern analyse_pattern(const PermutedUpper& upper, int parts) {
     next += static_cast<std::size_t>(column_count[j]);
     pattern.column_end[j] = next;
   }
-  // A solve's sweeps cost a row its column's length; the factorization's updates of column j
-  // cost about its length squared over two (most of them in the separators near the root).
+  const std::size_t nonzeros = size == 0 ? 0 : pattern.column_end[0];
+  pattern.column_row.resize(nonzeros);
+
+  // Each supernode's rows: its own columns, then the rows below them of its columns in the matrix
+  // and of its children's rows, sorted; written as its first column's rows, and the suffixes as
+  // its other columns'. Children come first in every part of the schedule.
   {
-    std::vector<double> work(column_count.begin(), column_count.end());
-    pattern.schedule = split_elimination_tree(pattern.parent, work, parts);
-    for (double& w : work) w = 0.5 * w * w;
-    pattern.factor_schedule = split_elimination_tree(pattern.parent, work, parts);
+    const Children tree = children_of(super_parent);
+    struct Gather {
+      std::vector<int> mark;
+      std::vector<int> below;
+    };
+    std::vector<Gather> gathers(std::max<std::size_t>(1, super.schedule.subtrees.size()));
+    for (auto& g : gathers) g.mark.assign(size, -1);
+    for_each_node(super.schedule, gathers, never, [&](Gather& g, int s) {
+      const auto node = static_cast<std::size_t>(s);
+      const int first = super.first_column[node], end = super.first_column[node + 1];
+      g.below.clear();
+      auto add = [&](int row) {
+        if (row >= end && g.mark[static_cast<std::size_t>(row)] != s) {
+          g.mark[static_cast<std::size_t>(row)] = s;
+          g.below.push_back(row);
+        }
+      };
+      for (int j = first; j < end; ++j) {
+        for (int p = matrix.diagonal[static_cast<std::size_t>(j)]; p < matrix.start[static_cast<std::size_t>(j) + 1]; ++p) add(matrix.row[static_cast<std::size_t>(p)]);
+      }
+      for (int c = tree.child_start[node]; c < tree.child_start[node + 1]; ++c) {
+        const auto child_first = static_cast<std::size_t>(super.first_column[static_cast<std::size_t>(tree.children[static_cast<std::size_t>(c)])]);
+        const auto child_width = static_cast<std::size_t>(super.width(tree.children[static_cast<std::size_t>(c)]));
+        for (std::size_t p = pattern.column_begin[child_first] + child_width; p < pattern.column_end[child_first]; ++p) add(pattern.column_row[p]);
+      }
+      // Runs of ascending rows, one per child and column: a short list is nearly sorted.
+      if (g.below.size() <= 64) {
+        for (std::size_t a = 1; a < g.below.size(); ++a) {
+          const int row = g.below[a];
+          std::size_t b = a;
+          for (; b > 0 && g.below[b - 1] > row; --b) g.below[b] = g.below[b - 1];
+          g.below[b] = row;
+        }
+      } else {
+        std::sort(g.below.begin(), g.below.end());
+      }
+      int* rows = pattern.column_row.data() + pattern.column_begin[static_cast<std::size_t>(first)];
+      std::iota(rows, rows + (end - first), first);
+      std::copy(g.below.begin(), g.below.end(), rows + (end - first));
+      for (int j = first + 1; j < end; ++j) {
+        std::copy(rows + (j - first), rows + column_count[static_cast<std::size_t>(first)], pattern.column_row.data() + pattern.column_begin[static_cast<std::size_t>(j)]);
+      }
+    });
   }
 
-  // Both layouts' indices. Columns fill in ascending row order: a subtree's rows touch only its
-  // own columns, and the top rows, which come after, are larger than every subtree row.
+  // The row layout: row k holds, for every supernode s whose rows include k (ascending), s's
+  // columns up to k. Where each supernode row's run starts is kept for the numeric factorization.
+  pattern.row_start.assign(size + 1, 0);
+  for (int s = 0; s < supernode_count; ++s) {
+    const auto first = static_cast<std::size_t>(super.first_column[static_cast<std::size_t>(s)]);
+    const auto width = static_cast<std::size_t>(super.width(s));
+    const int* rows = pattern.column_row.data() + pattern.column_begin[first];
+    for (std::size_t i = 0, m = pattern.column_end[first] - pattern.column_begin[first]; i < m; ++i) {
+      pattern.row_start[static_cast<std::size_t>(rows[i]) + 1] += static_cast<int>(std::min(i + 1, width));
+    }
+  }
+  for (std::size_t k = 0; k < size; ++k) pattern.row_start[k + 1] += pattern.row_start[k];
+  super.row_position_start.assign(static_cast<std::size_t>(supernode_count) + 1, 0);
+  for (int s = 0; s < supernode_count; ++s) {
+    super.row_position_start[static_cast<std::size_t>(s) + 1] =
+        super.row_position_start[static_cast<std::size_t>(s)] + static_cast<std::size_t>(column_count[static_cast<std::size_t>(super.first_column[static_cast<std::size_t>(s)])]);
+  }
+  super.row_position.resize(super.row_position_start.back());
+  {
+    std::vector<std::size_t> cursor(pattern.row_start.begin(), pattern.row_start.end() - 1);
+    for (int s = 0; s < supernode_count; ++s) {
+      const auto first = static_cast<std::size_t>(super.first_column[static_cast<std::size_t>(s)]);
+      const auto width = static_cast<std::size_t>(super.width(s));
+      const int* rows = pattern.column_row.data() + pattern.column_begin[first];
+      std::size_t* position = super.row_position.data() + super.row_position_start[static_cast<std::size_t>(s)];
+      for (std::size_t i = 0, m = pattern.column_end[first] - pattern.column_begin[first]; i < m; ++i) {
+        auto& at = cursor[static_cast<std::size_t>(rows[i])];
+        position[i] = at;
+        at += std::min(i + 1, width);
+      }
+    }
+  }
   pattern.row_column.resize(nonzeros);
-  pattern.column_row.resize(nonzeros);
-  std::vector<std::size_t> filled(pattern.column_begin);
-  std::vector<char> unused(walks.size());
-  for_each_row(walk_schedule, unused, never, [&](char&, int k) {
-    const auto row = static_cast<std::size_t>(k);
-    const auto first = static_cast<std::size_t>(pattern.row_start[row]);
-    const auto diagonal = static_cast<std::size_t>(pattern.row_start[row + 1]) - 1;
-    const int* walked = walks[static_cast<std::size_t>(walker[row])].columns.data() + walked_at[row];
-    std::copy(walked, walked + (diagonal - first), pattern.row_column.begin() + static_cast<std::ptrdiff_t>(first));
-    pattern.row_column[diagonal] = k;
-    for (std::size_t q = first; q <= diagonal; ++q) pattern.column_row[filled[static_cast<std::size_t>(pattern.row_column[q])]++] = k;
+  tbb::parallel_for(tbb::blocked_range<int>(0, supernode_count, 256), [&](const tbb::blocked_range<int>& range) {
+    for (int s = range.begin(); s != range.end(); ++s) {
+      const int first = super.first_column[static_cast<std::size_t>(s)];
+      const auto width = static_cast<std::size_t>(super.width(s));
+      const std::size_t* position = super.row_position.data() + super.row_position_start[static_cast<std::size_t>(s)];
+      const std::size_t m = super.row_position_start[static_cast<std::size_t>(s) + 1] - super.row_position_start[static_cast<std::size_t>(s)];
+      for (std::size_t i = 0; i < m; ++i) {
+        int* columns = pattern.row_column.data() + position[i];
+        std::iota(columns, columns + std::min(i + 1, width), first);
+      }
+    }
   });
+
+  // The updates each supernode receives: every earlier supernode d with rows in its columns, the
+  // run of d's rows that falls there. Found per block of d in parallel, then gathered per target
+  // in block order, so that each target's updates come in ascending d.
+  {
+    constexpr int kBlock = 1024;
+    const int blocks = (supernode_count + kBlock - 1) / kBlock;
+    std::vector<std::vector<std::pair<int, Supernodes::Update>>> found(static_cast<std::size_t>(blocks));
+    tbb::parallel_for(0, blocks, [&](int block) {
+      auto& list = found[static_cast<std::size_t>(block)];
+      for (int d = block * kBlock, end = std::min(supernode_count, d + kBlock); d < end; ++d) {
+        const auto first = static_cast<std::size_t>(super.first_column[static_cast<std::size_t>(d)]);
+        const int* rows = pattern.column_row.data() + pattern.column_begin[first];
+        const auto m = static_cast<int>(pattern.column_end[first] - pattern.column_begin[first]);
+        for (int i = super.width(d); i < m;) {
+          const int target = super.of_column[static_cast<std::size_t>(rows[i])];
+          const int run_end = super.first_column[static_cast<std::size_t>(target) + 1];
+          int last = i + 1;
+          while (last < m && rows[last] < run_end) ++last;
+          list.emplace_back(target, Supernodes::Update{d, i, last});
+          i = last;
+        }
+      }
+    });
+    super.update_start.assign(static_cast<std::size_t>(supernode_count) + 1, 0);
+    for (const auto& list : found) {
+      for (const auto& entry : list) ++super.update_start[static_cast<std::size_t>(entry.first) + 1];
+    }
+    for (int s = 0; s < supernode_count; ++s) super.update_start[static_cast<std::size_t>(s) + 1] += super.update_start[static_cast<std::size_t>(s)];
+    super.updates.resize(super.update_start.back());
+    std::vector<std::size_t> fill(super.update_start.begin(), super.update_start.end() - 1);
+    for (const auto& list : found) {
+      for (const auto& [target, update] : list) super.updates[fill[static_cast<std::size_t>(target)]++] = update;
+    }
+  }
+
+  // A solve's sweeps cost a column its length.
+  const std::vector<double> work(column_count.begin(), column_count.end());
+  pattern.schedule = split_elimination_tree(pattern.parent, work, parts);
   return pattern;
-}
-
-constexpr std::size_t kPrefetchDistance = 8;
-
-bool factor_numeric(const PermutedUpper& upper, const FactorPattern& pattern, std::vector<double>& row_value,
-                    std::vector<double>& column_value) {
-  const auto size = static_cast<std::size_t>(pattern.size());
-  row_value.assign(pattern.nonzeros(), 0.0);
-  column_value.assign(pattern.nonzeros(), 0.0);
-  struct Workspace {
-    std::vector<double> y;  // the row being solved, scattered; all zero between rows
-  };
-  std::vector<Workspace> workspaces(std::max<std::size_t>(1, pattern.factor_schedule.subtrees.size()));
-  for (auto& w : workspaces) w.y.assign(size, 0.0);
-  std::vector<std::size_t> filled(size, 0);  // entries of each column computed so far
-  std::atomic<bool> failed{false};
-  const int* row_column = pattern.row_column.data();
-  const int* column_row = pattern.column_row.data();
-  const std::size_t* column_begin = pattern.column_begin.data();
-  for_each_row(pattern.factor_schedule, workspaces, failed, [&](Workspace& w, int k) {
-    double* y = w.y.data();
-    for (int p = upper.start[static_cast<std::size_t>(k)]; p < upper.start[static_cast<std::size_t>(k) + 1]; ++p) {
-      y[upper.row[static_cast<std::size_t>(p)]] += upper.value[static_cast<std::size_t>(p)];
-    }
-    double d = y[k];
-    y[k] = 0.0;
-    const auto first = static_cast<std::size_t>(pattern.row_start[static_cast<std::size_t>(k)]);
-    const auto diagonal = static_cast<std::size_t>(pattern.row_start[static_cast<std::size_t>(k) + 1]) - 1;
-    // Ascending columns are a topological order: column j updates only rows between j and k.
-    for (std::size_t q = first; q < diagonal; ++q) {
-      // The columns a row reads are scattered over the factor: fetch the next ones' starts ahead
-      // (the top rows read thousands of columns each, one cache miss or more per column).
-      if (q + 2 * kPrefetchDistance < diagonal) {
-        const auto ahead = static_cast<std::size_t>(row_column[q + 2 * kPrefetchDistance]);
-        __builtin_prefetch(&column_begin[ahead]);
-        __builtin_prefetch(&filled[ahead]);
-      }
-      if (q + kPrefetchDistance < diagonal) {
-        const std::size_t ahead = column_begin[static_cast<std::size_t>(row_column[q + kPrefetchDistance])];
-        __builtin_prefetch(&column_value[ahead]);
-        __builtin_prefetch(&column_row[ahead + 1]);
-      }
-      const auto j = static_cast<std::size_t>(row_column[q]);
-      const std::size_t begin = column_begin[j];
-      const std::size_t end = begin + filled[j];
-      const double l = y[j] / column_value[begin];
-      y[j] = 0.0;
-      for (std::size_t p = begin + 1; p < end; ++p) y[column_row[p]] -= column_value[p] * l;
-      column_value[end] = l;
-      ++filled[j];
-      row_value[q] = l;
-      d -= l * l;
-    }
-    if (!(d > 0.0)) {
-      failed.store(true, std::memory_order_relaxed);
-      return;
-    }
-    const double root = std::sqrt(d);
-    column_value[column_begin[static_cast<std::size_t>(k)]] = root;
-    filled[static_cast<std::size_t>(k)] = 1;
-    row_value[diagonal] = root;
-  });
-  return !failed.load();
 }
 
 }  // namespace hdeform::detail

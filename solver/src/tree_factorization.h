@@ -2,30 +2,83 @@
 // The pieces of a sparse Cholesky factorization that run in parallel over disjoint subtrees of
 // the elimination tree (private to sparse_cholesky.cpp).
 //
-// L is computed row by row ("up-looking"): row k solves a triangular system whose pattern is the
-// set of k's descendants reached from the entries of A's column k, so every row reads and writes
-// only the columns of its own subtree. Disjoint subtrees therefore factor concurrently, and the
-// rows above them (the top) follow in ascending order. Each row's arithmetic is the same whatever
-// the schedule, so the factor is bit-identical for any number of threads.
+// L is computed supernode by supernode, left-looking: a supernode is a run of consecutive columns
+// whose rows below the diagonal are the same (column j's rows are column j+1's and j+1 itself),
+// factored as one dense panel after subtracting the updates of every earlier supernode with rows
+// in its columns. A supernode reads only its descendants in the elimination tree, so disjoint
+// subtrees factor concurrently and the supernodes above them (the top) follow. Each supernode
+// applies its updates in ascending order of the updating supernode whatever the schedule, so the
+// factor is bit-identical for any number of threads.
+//
+// The factor is written straight into the two layouts the solve sweeps read (L by rows, and L by
+// columns stored last to first); a supernode's panel is a column-major block only while it is
+// being computed.
 #include <Eigen/SparseCore>
+#include <tbb/parallel_for.h>
+#include <tbb/partitioner.h>
 
+#include <atomic>
 #include <cstddef>
 #include <span>
 #include <vector>
 
 namespace hdeform::detail {
 
-// Rows of the elimination tree split for `parts` workers: each subtree list (ascending) is closed
-// under descendants; `top` (ascending) holds every other row, each an ancestor of subtree roots.
+// Nodes of a tree split for `parts` workers: each subtree list (ascending) is closed under
+// descendants; `top` (ascending) holds every other node, each an ancestor of subtree roots.
 struct EliminationSchedule {
   std::vector<std::vector<int>> subtrees;
   std::vector<int> top;
 };
 
-// parent[j]: j's parent in the elimination tree, −1 for a root; work[j]: the cost of row j.
+// parent[j]: j's parent in the tree (parent[j] > j), −1 for a root; work[j]: the cost of node j.
 EliminationSchedule split_elimination_tree(std::span<const int> parent, std::span<const double> work, int parts);
 
-// The pattern of L in the two layouts the solve sweeps read, and the tree that orders them.
+// Runs `body(workspace, node)` for every node of a schedule: the subtrees concurrently (one
+// workspace each, nodes ascending), then the top nodes ascending on the calling thread with the
+// first workspace. `stop` ends the work early (checked between nodes).
+template <class Workspace, class Body>
+void for_each_node(const EliminationSchedule& schedule, std::vector<Workspace>& workspaces, const std::atomic<bool>& stop, Body&& body) {
+  tbb::parallel_for(
+      std::size_t{0}, schedule.subtrees.size(),
+      [&](std::size_t part) {
+        for (const int node : schedule.subtrees[part]) {
+          if (stop.load(std::memory_order_relaxed)) return;
+          body(workspaces[part], node);
+        }
+      },
+      tbb::static_partitioner());
+  for (const int node : schedule.top) {
+    if (stop.load(std::memory_order_relaxed)) return;
+    body(workspaces[0], node);
+  }
+}
+
+// Supernodes of L: supernode s holds columns [first_column[s], first_column[s+1]), and its rows
+// are those of its first column (in the column layout: the diagonal, then the rows below).
+struct Supernodes {
+  std::vector<int> first_column;
+  std::vector<int> of_column;  // the supernode of each column
+  // The updates supernode s receives, ascending by the supernode d that gives them: rows
+  // [first, last) of d's rows (counted from d's first column's diagonal) fall in s's columns.
+  struct Update {
+    int from;
+    int first;
+    int last;
+  };
+  std::vector<std::size_t> update_start;  // s's updates: [update_start[s], update_start[s+1])
+  std::vector<Update> updates;
+  // Where row i of s's rows starts in the row layout (its entries in s's columns follow there).
+  std::vector<std::size_t> row_position_start;  // per supernode, into row_position
+  std::vector<std::size_t> row_position;
+  EliminationSchedule schedule;  // over supernodes, weighted by their arithmetic
+  std::size_t largest_panel = 0;  // rows × columns of the largest supernode
+
+  int count() const { return static_cast<int>(first_column.size()) - 1; }
+  int width(int s) const { return first_column[static_cast<std::size_t>(s) + 1] - first_column[static_cast<std::size_t>(s)]; }
+};
+
+// The pattern of L in the two layouts the solve sweeps read, and the trees that order them.
 struct FactorPattern {
   // L by rows (Lᵀ in CSC): row k is [row_start[k], row_start[k+1]), columns ascending, diagonal last.
   std::vector<int> row_start;
@@ -36,29 +89,42 @@ struct FactorPattern {
   std::vector<std::size_t> column_end;
   std::vector<int> column_row;
   std::vector<int> parent;
-  EliminationSchedule schedule;         // for the solve sweeps: rows weighted by their column's length
-  EliminationSchedule factor_schedule;  // for the factorization: rows weighted by their updates' flops
+  EliminationSchedule schedule;  // for the solve sweeps: columns weighted by their length
+  Supernodes supernodes;         // for the factorization (empty when another backend computed L)
 
   int size() const { return static_cast<int>(parent.size()); }
   std::size_t nonzeros() const { return row_column.size(); }
+  std::size_t column_length(int j) const {
+    return column_end[static_cast<std::size_t>(j)] - column_begin[static_cast<std::size_t>(j)];
+  }
 };
 
-// The upper triangle of P A Pᵀ by columns (rows ascending, diagonal last) for A symmetric with
-// both triangles stored and factor_row[i] the row of unknown i: what the analysis and the
-// numeric factorization read.
-struct PermutedUpper {
+// P A Pᵀ by columns, both triangles, rows ascending, for A symmetric with both triangles stored
+// and factor_row[i] the row of unknown i: what the analysis and the numeric factorization read.
+// Column k's entries above the diagonal are [start[k], diagonal[k]), the diagonal and below
+// [diagonal[k], start[k+1]).
+struct PermutedMatrix {
   std::vector<int> start;
+  std::vector<int> diagonal;
   std::vector<int> row;
   std::vector<double> value;
 };
-PermutedUpper permuted_upper(const Eigen::SparseMatrix<double>& matrix, std::span<const int> factor_row);
+PermutedMatrix permuted_matrix(const Eigen::SparseMatrix<double>& matrix, std::span<const int> factor_row);
 
-// Elimination tree, pattern of L and its split for `parts` workers.
-FactorPattern analyse_pattern(const PermutedUpper& upper, int parts);
+// Updates of at least this many multiply-adds go through a blocked matrix product, and panels at
+// least this wide through a blocked Cholesky factorization and triangular solve (the top of the
+// tree); smaller ones through plain loops. The choice depends on the sizes alone, so each
+// supernode's arithmetic is the same on any schedule.
+inline constexpr long kBlockedUpdateWork = 32 * 1024;
+inline constexpr int kBlockedPanelWidth = 32;
+
+// Elimination tree, supernodes, the pattern of L in both layouts and their splits for `parts`
+// workers.
+FactorPattern analyse_pattern(const PermutedMatrix& matrix, int parts);
 
 // L's values in both layouts of `pattern` (row_value by rows, column_value by stored columns).
 // Returns false when the matrix is not positive definite.
-bool factor_numeric(const PermutedUpper& upper, const FactorPattern& pattern, std::vector<double>& row_value,
+bool factor_numeric(const PermutedMatrix& matrix, const FactorPattern& pattern, std::vector<double>& row_value,
                     std::vector<double>& column_value);
 
 }  // namespace hdeform::detail
