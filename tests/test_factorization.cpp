@@ -225,9 +225,10 @@ TEST(TreeFactorization, SupernodesGiveTheSimplicialFactorEntryByEntry) {
       ASSERT_EQ(pattern.column_length(j), static_cast<std::size_t>(lower.outerIndexPtr()[j + 1] - lower.outerIndexPtr()[j])) << "column " << j;
       for (int p = lower.outerIndexPtr()[j], q = 0; p < lower.outerIndexPtr()[j + 1]; ++p, ++q) {
         const std::size_t at = pattern.column_begin[static_cast<std::size_t>(j)] + static_cast<std::size_t>(q);
-        ASSERT_EQ(pattern.column_row[at], lower.innerIndexPtr()[p]) << "column " << j;
+        ASSERT_EQ(pattern.column_rows(j)[q], lower.innerIndexPtr()[p]) << "column " << j;
         column_error = std::max(column_error, std::abs(column_value[at] - lower.valuePtr()[p]));
       }
+      ASSERT_EQ(pattern.row_start[static_cast<std::size_t>(j) + 1] - pattern.row_start[static_cast<std::size_t>(j)], by_rows.outerIndexPtr()[j + 1] - by_rows.outerIndexPtr()[j]);
       for (int p = by_rows.outerIndexPtr()[j], at = pattern.row_start[static_cast<std::size_t>(j)]; p < by_rows.outerIndexPtr()[j + 1]; ++p, ++at) {
         ASSERT_EQ(pattern.row_column[static_cast<std::size_t>(at)], by_rows.innerIndexPtr()[p]) << "row " << j;
         row_error = std::max(row_error, std::abs(row_value[static_cast<std::size_t>(at)] - by_rows.valuePtr()[p]));

@@ -21,71 +21,68 @@
 namespace hdeform {
 namespace {
 
-// Forward sweep L y = b over `columns` (ascending), K interleaved right-hand sides: a gather
-// along row j of L, read as column j of Lᵀ (diagonal last).
-// Independent partial sums per column: a single running sum would chain every product through
-// the adder's latency. The split is fixed, so the result does not depend on threads.
-template <int K>
+// Both sweeps sum each unknown's products with two independent partial sums (alternating entry
+// by entry along the row or column): a single running sum would chain every product through the
+// adder's latency. The split is fixed, so the result does not depend on threads.
 constexpr int kPartialSums = 2;
 
-// Σ_p value[p]·y[inner[p]] for p in [begin, end), K interleaved columns, into sum[0..K).
+// Σ value[i]·y[index[i]] for i in [0, count), K interleaved columns, into sum[0..K): a gather
+// along a row's columns or a column's rows.
 template <int K>
-inline void gather_products(const int* inner, const double* value, int begin, int end, const double* y, int stride, double* sum) {
-  constexpr int S = kPartialSums<K>;
-  double partial[S][K] = {};
-  int p = begin;
-  for (; p + S <= end; p += S) {
-    for (int s = 0; s < S; ++s) {
-      const double l = value[p + s];
-      const double* yi = y + static_cast<std::ptrdiff_t>(inner[p + s]) * stride;
+inline void gather(const int* index, const double* value, int count, const double* y, int stride, double* sum) {
+  double partial[kPartialSums][K] = {};
+  int i = 0;
+  for (; i + kPartialSums <= count; i += kPartialSums) {
+    for (int s = 0; s < kPartialSums; ++s) {
+      const double l = value[i + s];
+      const double* yi = y + static_cast<std::ptrdiff_t>(index[i + s]) * stride;
       for (int k = 0; k < K; ++k) partial[s][k] += l * yi[k];
     }
   }
-  for (; p < end; ++p) {
-    const double l = value[p];
-    const double* yi = y + static_cast<std::ptrdiff_t>(inner[p]) * stride;
+  for (; i < count; ++i) {
+    const double l = value[i];
+    const double* yi = y + static_cast<std::ptrdiff_t>(index[i]) * stride;
     for (int k = 0; k < K; ++k) partial[0][k] += l * yi[k];
   }
-  for (int k = 0; k < K; ++k) {
-    double total = 0.0;
-    for (int s = 0; s < S; ++s) total += partial[s][k];
-    sum[k] = total;
-  }
+  for (int k = 0; k < K; ++k) sum[k] = partial[0][k] + partial[1][k];
 }
 
 // Forward sweep L y = b over `columns` (ascending), K interleaved right-hand sides: a gather
-// along row j of L, read as column j of Lᵀ (diagonal last).
+// along row j of L, the diagonal last.
 template <int K>
-void forward_sweep(const int* outer, const int* inner, const double* value, std::span<const int> columns, double* y, int stride) {
+void forward_sweep(const detail::FactorPattern& pattern, const double* value, std::span<const int> columns, double* y, int stride) {
   for (const int j : columns) {
-    double* yj = y + static_cast<std::ptrdiff_t>(j) * stride;
-    const int diagonal = outer[j + 1] - 1;
+    const auto row = static_cast<std::size_t>(j);
+    const int first = pattern.row_start[row];
+    const int diagonal = pattern.row_start[row + 1] - 1;
     double products[K];
-    gather_products<K>(inner, value, outer[j], diagonal, y, stride, products);
+    gather<K>(pattern.row_column.data() + first, value + first, diagonal - first, y, stride, products);
+    double* yj = y + static_cast<std::ptrdiff_t>(j) * stride;
     const double inverse_diagonal = 1.0 / value[diagonal];
     for (int k = 0; k < K; ++k) yj[k] = (yj[k] - products[k]) * inverse_diagonal;
   }
 }
 
 // Backward sweep Lᵀ x = y over `columns` (descending): a gather along column j of L (diagonal
-// first), with L's columns stored last to first.
+// first), with L's columns stored last to first and each column's rows the end of its
+// supernode's row list.
 template <int K>
-void backward_sweep(const std::size_t* begin, const std::size_t* end, const int* row, const double* value,
-                    std::span<const int> columns, double* y, int stride) {
+void backward_sweep(const detail::FactorPattern& pattern, const double* value, std::span<const int> columns, double* y, int stride) {
   for (auto it = columns.rbegin(); it != columns.rend(); ++it) {
     const int j = *it;
-    double* yj = y + static_cast<std::ptrdiff_t>(j) * stride;
-    const auto diagonal = static_cast<int>(begin[j]);
+    const double* l = value + pattern.column_begin[static_cast<std::size_t>(j)];
+    const auto length = static_cast<int>(pattern.column_length(j));
     double products[K];
-    gather_products<K>(row, value, diagonal + 1, static_cast<int>(end[j]), y, stride, products);
-    const double inverse_diagonal = 1.0 / value[diagonal];
+    gather<K>(pattern.column_rows(j) + 1, l + 1, length - 1, y, stride, products);
+    double* yj = y + static_cast<std::ptrdiff_t>(j) * stride;
+    const double inverse_diagonal = 1.0 / l[0];
     for (int k = 0; k < K; ++k) yj[k] = (yj[k] - products[k]) * inverse_diagonal;
   }
 }
 
 struct Sweeps {
-  void (*forward)(const int*, const int*, const double*, std::span<const int>, double*, int);
-  void (*backward)(const std::size_t*, const std::size_t*, const int*, const double*, std::span<const int>, double*, int);
+  void (*forward)(const detail::FactorPattern&, const double*, std::span<const int>, double*, int);
+  void (*backward)(const detail::FactorPattern&, const double*, std::span<const int>, double*, int);
 };
 template <int K>
 constexpr Sweeps sweeps_for() {
@@ -213,7 +210,7 @@ struct SparseCholesky::Analysis {
 struct SparseCholesky::Factor {
   std::shared_ptr<const Analysis> analysis = std::make_shared<Analysis>();
   std::vector<double> row_value;     // L by rows (analysis->pattern.row_start/row_column); forward sweep
-  std::vector<double> column_value;  // L by stored columns (pattern.column_begin/end/row); backward sweep
+  std::vector<double> column_value;  // L by stored columns (pattern.column_begin/end and rows); backward sweep
   bool reused_analysis = false;
 };
 
@@ -232,7 +229,8 @@ void adopt(const Eigen::SparseMatrix<double>& lower, std::vector<int> factor_row
   factor.row_value.assign(upper.valuePtr(), upper.valuePtr() + nonzeros);
   pattern.column_begin.resize(n);
   pattern.column_end.resize(n);
-  pattern.column_row.resize(nonzeros);
+  pattern.rows_of_column.resize(n);
+  pattern.rows.resize(nonzeros);  // one row list per column: no sharing
   factor.column_value.resize(nonzeros);
   pattern.parent.assign(n, -1);
   std::vector<double> work(n);
@@ -240,8 +238,9 @@ void adopt(const Eigen::SparseMatrix<double>& lower, std::vector<int> factor_row
   std::size_t next = 0;
   for (std::size_t j = n; j-- > 0;) {
     pattern.column_begin[j] = next;
+    pattern.rows_of_column[j] = next;
     for (int p = outer[j]; p < outer[j + 1]; ++p, ++next) {
-      pattern.column_row[next] = lower.innerIndexPtr()[p];
+      pattern.rows[next] = lower.innerIndexPtr()[p];
       factor.column_value[next] = lower.valuePtr()[p];
     }
     pattern.column_end[j] = next;
@@ -390,13 +389,8 @@ void SparseCholesky::solve_block(double* block, int columns, int stride) const {
       if (side_by_side) tbb::parallel_for(std::size_t{0}, subtrees.size(), one, tbb::static_partitioner());
       else for (std::size_t part = 0; part < subtrees.size(); ++part) one(part);
     };
-    auto forward = [&](std::span<const int> part) {
-      sweeps.forward(pattern.row_start.data(), pattern.row_column.data(), f.row_value.data(), part, y, stride);
-    };
-    auto backward = [&](std::span<const int> part) {
-      sweeps.backward(pattern.column_begin.data(), pattern.column_end.data(), pattern.column_row.data(), f.column_value.data(), part, y,
-                      stride);
-    };
+    auto forward = [&](std::span<const int> part) { sweeps.forward(pattern, f.row_value.data(), part, y, stride); };
+    auto backward = [&](std::span<const int> part) { sweeps.backward(pattern, f.column_value.data(), part, y, stride); };
     each_subtree("forward sweep, subtree", forward);
     {
       const trace::Scope traced("forward and backward sweeps, top", "solve");

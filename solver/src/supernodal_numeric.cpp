@@ -32,7 +32,7 @@ struct Layout {
 
   int first_column(int s) const { return pattern.supernodes.first_column[static_cast<std::size_t>(s)]; }
   // The rows of supernode s: its first column's rows, diagonal first.
-  const int* rows(int s) const { return pattern.column_row.data() + pattern.column_begin[static_cast<std::size_t>(first_column(s))]; }
+  const int* rows(int s) const { return pattern.rows.data() + pattern.supernodes.rows_at[static_cast<std::size_t>(s)]; }
   int row_count(int s) const { return static_cast<int>(pattern.column_length(first_column(s))); }
   // Column k of s so that column(s, k)[i] is the entry of s's row i (i ≥ k).
   const double* column(int s, int k) const {
@@ -146,7 +146,7 @@ bool factor_supernode(const PermutedMatrix& matrix, const Layout& layout, int s,
     const double* column = panel + static_cast<std::ptrdiff_t>(c) * m;
     std::copy(column + c, column + m, layout.column_value + layout.pattern.column_begin[static_cast<std::size_t>(first + c)]);
   }
-  const std::size_t* position = super.row_position.data() + super.row_position_start[static_cast<std::size_t>(s)];
+  const int* position = super.row_position.data() + super.rows_at[static_cast<std::size_t>(s)];
   for (int i = 0; i < m; ++i) {
     double* out = layout.row_value + position[i];
     for (int c = 0, count = std::min(i + 1, width); c < count; ++c) out[c] = panel[static_cast<std::ptrdiff_t>(c) * m + i];

@@ -268,7 +268,7 @@ FactorPattern analyse_pattern(const PermutedMatrix& matrix, int parts) {
   }
   super.schedule = split_elimination_tree(super_parent, super_work, parts);
 
-  // The column layout, columns stored last to first.
+  // The column layout, columns stored last to first, and where each supernode's rows go.
   pattern.column_begin.resize(size);
   pattern.column_end.resize(size);
   for (std::size_t j = size, next = 0; j-- > 0;) {
@@ -276,12 +276,20 @@ FactorPattern analyse_pattern(const PermutedMatrix& matrix, int parts) {
     next += static_cast<std::size_t>(column_count[j]);
     pattern.column_end[j] = next;
   }
-  const std::size_t nonzeros = size == 0 ? 0 : pattern.column_end[0];
-  pattern.column_row.resize(nonzeros);
+  super.rows_at.assign(static_cast<std::size_t>(supernode_count) + 1, 0);
+  pattern.rows_of_column.resize(size);
+  for (int s = 0; s < supernode_count; ++s) {
+    const auto at = super.rows_at[static_cast<std::size_t>(s)];
+    const int first = super.first_column[static_cast<std::size_t>(s)];
+    for (int j = first; j < super.first_column[static_cast<std::size_t>(s) + 1]; ++j) pattern.rows_of_column[static_cast<std::size_t>(j)] = at + static_cast<std::size_t>(j - first);
+    super.rows_at[static_cast<std::size_t>(s) + 1] = at + static_cast<std::size_t>(column_count[static_cast<std::size_t>(first)]);
+  }
+  pattern.rows.resize(super.rows_at.back());
+  auto rows_of = [&](int s) { return pattern.rows.data() + super.rows_at[static_cast<std::size_t>(s)]; };
+  auto row_count_of = [&](int s) { return static_cast<int>(super.rows_at[static_cast<std::size_t>(s) + 1] - super.rows_at[static_cast<std::size_t>(s)]); };
 
   // Each supernode's rows: its own columns, then the rows below them of its columns in the matrix
-  // and of its children's rows, sorted; written as its first column's rows, and the suffixes as
-  // its other columns'. Children come first in every part of the schedule.
+  // and of its children's rows, sorted. Children come first in every part of the schedule.
   {
     const Children tree = children_of(super_parent);
     struct Gather {
@@ -304,9 +312,9 @@ FactorPattern analyse_pattern(const PermutedMatrix& matrix, int parts) {
         for (int p = matrix.diagonal[static_cast<std::size_t>(j)]; p < matrix.start[static_cast<std::size_t>(j) + 1]; ++p) add(matrix.row[static_cast<std::size_t>(p)]);
       }
       for (int c = tree.child_start[node]; c < tree.child_start[node + 1]; ++c) {
-        const auto child_first = static_cast<std::size_t>(super.first_column[static_cast<std::size_t>(tree.children[static_cast<std::size_t>(c)])]);
-        const auto child_width = static_cast<std::size_t>(super.width(tree.children[static_cast<std::size_t>(c)]));
-        for (std::size_t p = pattern.column_begin[child_first] + child_width; p < pattern.column_end[child_first]; ++p) add(pattern.column_row[p]);
+        const int child = tree.children[static_cast<std::size_t>(c)];
+        const int* child_rows = rows_of(child);
+        for (int i = super.width(child), m = row_count_of(child); i < m; ++i) add(child_rows[i]);
       }
       // Runs of ascending rows, one per child and column: a short list is nearly sorted.
       if (g.below.size() <= 64) {
@@ -319,55 +327,41 @@ FactorPattern analyse_pattern(const PermutedMatrix& matrix, int parts) {
       } else {
         std::sort(g.below.begin(), g.below.end());
       }
-      int* rows = pattern.column_row.data() + pattern.column_begin[static_cast<std::size_t>(first)];
+      int* rows = rows_of(s);
       std::iota(rows, rows + (end - first), first);
       std::copy(g.below.begin(), g.below.end(), rows + (end - first));
-      for (int j = first + 1; j < end; ++j) {
-        std::copy(rows + (j - first), rows + column_count[static_cast<std::size_t>(first)], pattern.column_row.data() + pattern.column_begin[static_cast<std::size_t>(j)]);
-      }
     });
   }
 
   // The row layout: row k holds, for every supernode s whose rows include k (ascending), s's
-  // columns up to k. Where each supernode row's run starts is kept for the numeric factorization.
+  // columns up to k. Where each supernode row's entries start is kept for the factorization.
   pattern.row_start.assign(size + 1, 0);
   for (int s = 0; s < supernode_count; ++s) {
-    const auto first = static_cast<std::size_t>(super.first_column[static_cast<std::size_t>(s)]);
-    const auto width = static_cast<std::size_t>(super.width(s));
-    const int* rows = pattern.column_row.data() + pattern.column_begin[first];
-    for (std::size_t i = 0, m = pattern.column_end[first] - pattern.column_begin[first]; i < m; ++i) {
-      pattern.row_start[static_cast<std::size_t>(rows[i]) + 1] += static_cast<int>(std::min(i + 1, width));
-    }
+    const int width = super.width(s);
+    const int* rows = rows_of(s);
+    for (int i = 0, m = row_count_of(s); i < m; ++i) pattern.row_start[static_cast<std::size_t>(rows[i]) + 1] += std::min(i + 1, width);
   }
   for (std::size_t k = 0; k < size; ++k) pattern.row_start[k + 1] += pattern.row_start[k];
-  super.row_position_start.assign(static_cast<std::size_t>(supernode_count) + 1, 0);
-  for (int s = 0; s < supernode_count; ++s) {
-    super.row_position_start[static_cast<std::size_t>(s) + 1] =
-        super.row_position_start[static_cast<std::size_t>(s)] + static_cast<std::size_t>(column_count[static_cast<std::size_t>(super.first_column[static_cast<std::size_t>(s)])]);
-  }
-  super.row_position.resize(super.row_position_start.back());
+  super.row_position.resize(pattern.rows.size());
   {
-    std::vector<std::size_t> cursor(pattern.row_start.begin(), pattern.row_start.end() - 1);
+    std::vector<int> at(pattern.row_start.begin(), pattern.row_start.end() - 1);
     for (int s = 0; s < supernode_count; ++s) {
-      const auto first = static_cast<std::size_t>(super.first_column[static_cast<std::size_t>(s)]);
-      const auto width = static_cast<std::size_t>(super.width(s));
-      const int* rows = pattern.column_row.data() + pattern.column_begin[first];
-      std::size_t* position = super.row_position.data() + super.row_position_start[static_cast<std::size_t>(s)];
-      for (std::size_t i = 0, m = pattern.column_end[first] - pattern.column_begin[first]; i < m; ++i) {
-        auto& at = cursor[static_cast<std::size_t>(rows[i])];
-        position[i] = at;
-        at += std::min(i + 1, width);
+      const int width = super.width(s);
+      const int* rows = rows_of(s);
+      int* position = super.row_position.data() + super.rows_at[static_cast<std::size_t>(s)];
+      for (int i = 0, m = row_count_of(s); i < m; ++i) {
+        position[i] = at[static_cast<std::size_t>(rows[i])];
+        at[static_cast<std::size_t>(rows[i])] += std::min(i + 1, width);
       }
     }
   }
-  pattern.row_column.resize(nonzeros);
+  pattern.row_column.resize(static_cast<std::size_t>(pattern.row_start.back()));
   tbb::parallel_for(tbb::blocked_range<int>(0, supernode_count, 256), [&](const tbb::blocked_range<int>& range) {
     for (int s = range.begin(); s != range.end(); ++s) {
       const int first = super.first_column[static_cast<std::size_t>(s)];
-      const auto width = static_cast<std::size_t>(super.width(s));
-      const std::size_t* position = super.row_position.data() + super.row_position_start[static_cast<std::size_t>(s)];
-      const std::size_t m = super.row_position_start[static_cast<std::size_t>(s) + 1] - super.row_position_start[static_cast<std::size_t>(s)];
-      for (std::size_t i = 0; i < m; ++i) {
+      const int width = super.width(s);
+      const int* position = super.row_position.data() + super.rows_at[static_cast<std::size_t>(s)];
+      for (int i = 0, m = row_count_of(s); i < m; ++i) {
         int* columns = pattern.row_column.data() + position[i];
         std::iota(columns, columns + std::min(i + 1, width), first);
       }
@@ -384,9 +378,8 @@ FactorPattern analyse_pattern(const PermutedMatrix& matrix, int parts) {
     tbb::parallel_for(0, blocks, [&](int block) {
       auto& list = found[static_cast<std::size_t>(block)];
       for (int d = block * kBlock, end = std::min(supernode_count, d + kBlock); d < end; ++d) {
-        const auto first = static_cast<std::size_t>(super.first_column[static_cast<std::size_t>(d)]);
-        const int* rows = pattern.column_row.data() + pattern.column_begin[first];
-        const auto m = static_cast<int>(pattern.column_end[first] - pattern.column_begin[first]);
+        const int* rows = rows_of(d);
+        const int m = row_count_of(d);
         for (int i = super.width(d); i < m;) {
           const int target = super.of_column[static_cast<std::size_t>(rows[i])];
           const int run_end = super.first_column[static_cast<std::size_t>(target) + 1];
