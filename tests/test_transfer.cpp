@@ -115,15 +115,39 @@ TEST(DeformationGradient, RotationAndScaleOfASimilarity) {
   EXPECT_NEAR(std::abs(flipped.rotation.w()), 1.0, 1e-12);
 }
 
+// The triangles' coordinates straight from the solve equal the means of the vertices' coordinates
+// bit for bit, on a part of the mesh with markers and on a part without (1/k everywhere).
+TEST(HarmonicCoordinates, TrianglesAreTheMeanOfTheirCornersBitForBitAlsoWhereNoMarkerIs) {
+  const auto cactus = make_shape(ShapeKind::Cactus, 16).mesh;
+  const auto sphere = make_shape(ShapeKind::Sphere, 8).mesh;
+  Mesh mesh{Eigen::MatrixXd(cactus.vertex_count() + sphere.vertex_count(), 3), Eigen::MatrixXi(cactus.triangle_count() + sphere.triangle_count(), 3)};
+  mesh.positions << cactus.positions, sphere.positions.rowwise() + Eigen::RowVector3d(5.0, 0.0, 0.0);
+  mesh.triangles << cactus.triangles, sphere.triangles.array() + static_cast<int>(cactus.vertex_count());
+  const auto markers = spread_markers(cactus, 7);
+  EditConstraints constraints;
+  constraints.fixed = markers;
+  std::sort(constraints.fixed.begin(), constraints.fixed.end());
+  const auto weights = cotangent_weights(mesh);
+  const auto partition = partition_vertices(mesh, weights, constraints);
+  ASSERT_EQ(partition.stray_components, 1);
+  const DirichletSystem system(cotangent_laplacian(mesh, weights), partition, default_backend());
+  const Eigen::MatrixXd expected = barycenter_values(harmonic_coordinates(system, partition, markers), mesh.triangles);
+  const CoordinateRows rows = triangle_coordinates(system, partition, markers, mesh.triangles);
+  ASSERT_EQ(rows.rows(), mesh.triangle_count());
+  EXPECT_EQ(Eigen::MatrixXd(rows), expected);
+  EXPECT_EQ(rows.row(mesh.triangle_count() - 1), Eigen::RowVectorXd::Constant(7, 1.0 / 7.0));
+  EXPECT_GT(rows.topRows(cactus.triangle_count()).col(3).maxCoeff(), 0.5);
+}
+
 // Harmonic coordinates of a mesh's triangles, computed here as the transfer computes them.
-Eigen::MatrixXd triangle_coordinates(const Mesh& mesh, const std::vector<int>& markers) {
+CoordinateRows coordinates_of_triangles(const Mesh& mesh, const std::vector<int>& markers) {
   EditConstraints constraints;
   constraints.fixed = markers;
   std::sort(constraints.fixed.begin(), constraints.fixed.end());
   const auto weights = cotangent_weights(mesh);
   const auto partition = partition_vertices(mesh, weights, constraints);
   const DirichletSystem system(cotangent_laplacian(mesh, weights), partition, default_backend());
-  return barycenter_values(harmonic_coordinates(system, partition, markers), mesh.triangles);
+  return triangle_coordinates(system, partition, markers, mesh.triangles);
 }
 
 // The nearest source row to target row t by a full scan over the components (all when `top_n` is
@@ -162,12 +186,14 @@ TEST(TriangleMatch, EqualsABruteForceSearchOnTheSharedMarkers) {
     const Mesh source = read_obj(meshes / pair.source);
     const Mesh target = read_obj(meshes / pair.target);
     const auto markers = read_marker_pairs(meshes / pair.markers, pair.column, source.vertex_count(), target.vertex_count());
-    const Eigen::MatrixXd source_coordinates = triangle_coordinates(source, markers.source);
-    const Eigen::MatrixXd target_coordinates = triangle_coordinates(target, markers.target);
+    const CoordinateRows source_coordinates = coordinates_of_triangles(source, markers.source);
+    const CoordinateRows target_coordinates = coordinates_of_triangles(target, markers.target);
+    // The scan reads columns.
+    const Eigen::MatrixXd source_columns = source_coordinates, target_columns = target_coordinates;
     for (const int top_n : {0, 3, 10}) {
       const TriangleMatch match = match_triangles(target_coordinates, source_coordinates, top_n);
       for (Eigen::Index t = 0; t < target_coordinates.rows(); t += 97) {
-        const auto [nearest, distance] = scan_nearest(target_coordinates, t, source_coordinates, top_n);
+        const auto [nearest, distance] = scan_nearest(target_columns, t, source_columns, top_n);
         EXPECT_EQ(match.source[static_cast<std::size_t>(t)], nearest) << "top-n " << top_n << ", target triangle " << t;
         EXPECT_NEAR(match.distance[static_cast<std::size_t>(t)], distance, 1e-14) << "top-n " << top_n << ", target triangle " << t;
       }

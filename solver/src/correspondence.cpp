@@ -13,7 +13,6 @@
 namespace hdeform {
 namespace {
 
-using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
 using Row = Eigen::Map<const Eigen::RowVectorXd>;
 
 // A lower bound computed in floating point may round above the true one; pruning a little less
@@ -31,19 +30,31 @@ constexpr int kBlock = 16;            // components summed between two checks of
 // components too: it is a sum over components.
 class CoordinateTree {
  public:
-  explicit CoordinateTree(const RowMajor& source)
+  explicit CoordinateTree(CoordinateRows&& source)
       : k_(static_cast<int>(source.cols())), nodes_(static_cast<std::size_t>(node_count(static_cast<int>(source.rows())))),
         low_(nodes_.size() * static_cast<std::size_t>(k_)), high_(low_.size()), index_(static_cast<std::size_t>(source.rows())) {
     const auto count = static_cast<int>(source.rows());
     std::iota(index_.begin(), index_.end(), 0);
     std::vector<double> projection(static_cast<std::size_t>(count));
     build(source, 0, 0, count, projection);
-    points_.resize(count, k_);
+    // The rows in tree order, in place (a leaf's rows side by side): each cycle of the
+    // permutation followed with one row in hand, where a copy would write as much memory again.
+    points_ = std::move(source);
     position_.resize(static_cast<std::size_t>(count));
-    tbb::parallel_for(0, count, [&](int p) {
-      points_.row(p) = source.row(index_[static_cast<std::size_t>(p)]);
-      position_[static_cast<std::size_t>(index_[static_cast<std::size_t>(p)])] = p;
-    });
+    std::vector<char> placed(static_cast<std::size_t>(count), 0);
+    Eigen::RowVectorXd held(k_);
+    for (int start = 0; start < count; ++start) {
+      position_[static_cast<std::size_t>(index_[static_cast<std::size_t>(start)])] = start;
+      if (placed[static_cast<std::size_t>(start)] != 0) continue;
+      held = points_.row(start);
+      int p = start;
+      for (int from = index_[static_cast<std::size_t>(p)]; from != start; p = from, from = index_[static_cast<std::size_t>(p)]) {
+        points_.row(p) = points_.row(from);
+        placed[static_cast<std::size_t>(p)] = 1;
+      }
+      points_.row(p) = held;
+      placed[static_cast<std::size_t>(p)] = 1;
+    }
   }
 
   // The source row nearest to `query` over `components` (all k when empty), ties to the lower
@@ -76,7 +87,7 @@ class CoordinateTree {
   // when its bound exceeds the best distance by more than rounding can explain.
   static double prune_limit(double best_squared) { return best_squared * (1.0 + kBoundSlack); }
 
-  void build(const RowMajor& source, int node, int begin, int end, std::vector<double>& projection) {
+  void build(const CoordinateRows& source, int node, int begin, int end, std::vector<double>& projection) {
     const auto offset = static_cast<std::size_t>(node) * static_cast<std::size_t>(k_);
     Eigen::Map<Eigen::RowVectorXd> low(low_.data() + offset, k_), high(high_.data() + offset, k_);
     auto row = [&](int p) { return source.row(index_[static_cast<std::size_t>(p)]); };
@@ -184,12 +195,12 @@ class CoordinateTree {
   std::vector<double> low_, high_;  // per node, the box: k each
   std::vector<int> index_;          // tree order → source row
   std::vector<int> position_;       // source row → tree order
-  RowMajor points_;                 // the source rows in tree order
+  CoordinateRows points_;           // the source rows in tree order
 };
 
 }  // namespace
 
-TriangleMatch match_triangles(const Eigen::MatrixXd& target, const Eigen::MatrixXd& source, int top_n) {
+TriangleMatch match_triangles(const CoordinateRows& target, CoordinateRows source, int top_n) {
   const auto k = static_cast<int>(source.cols());
   if (target.cols() != k) throw std::invalid_argument("match_triangles: target and source coordinates differ in length");
   if (top_n != 0 && (top_n < 3 || top_n > k)) {
@@ -202,8 +213,7 @@ TriangleMatch match_triangles(const Eigen::MatrixXd& target, const Eigen::Matrix
   if (target_count == 0 || source.rows() == 0) return match;
   if (top_n == k) top_n = 0;
 
-  const CoordinateTree tree{RowMajor(source)};
-  const RowMajor queries = target;
+  const CoordinateTree tree{std::move(source)};
   // Neighbouring target triangles (mostly neighbours in the file's order, too) have nearby
   // matches: each query starts from the previous one's answer.
   tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, target_count, 128), [&](const auto& range) {
@@ -211,7 +221,7 @@ TriangleMatch match_triangles(const Eigen::MatrixXd& target, const Eigen::Matrix
     std::vector<int> order(static_cast<std::size_t>(k));
     int guess = 0;
     for (Eigen::Index t = range.begin(); t != range.end(); ++t) {
-      const double* query = queries.row(t).data();
+      const double* query = target.row(t).data();
       if (top_n > 0) {
         // The n largest components, ties to the lower index.
         std::iota(order.begin(), order.end(), 0);

@@ -6,6 +6,7 @@
 #include <optional>
 
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
 
 #include "disjoint_sets.h"
 #include "hdeform/constraints.h"
@@ -17,6 +18,7 @@
 #include "hdeform/harmonic_coordinates.h"
 #include "hdeform/laplacian.h"
 #include "hdeform/poisson.h"
+#include "hdeform/sparse_cholesky.h"
 #include "hdeform/stopwatch.h"
 
 namespace hdeform {
@@ -101,6 +103,15 @@ std::optional<TransferMethod> parse_transfer_method(std::string_view name) {
   return std::nullopt;
 }
 
+struct DeformationTransfer::Operators {
+  Operators(const Mesh& mesh, SolverBackend backend) : weights(cotangent_weights(mesh)), laplacian(cotangent_laplacian(mesh, weights)) {
+    if (backend == SolverBackend::Tree) elimination_rank = elimination_ranks(laplacian);
+  }
+  CotangentWeights weights;
+  Eigen::SparseMatrix<double> laplacian;
+  std::vector<int> elimination_rank;  // empty for a backend that orders by itself
+};
+
 // The target's Poisson system: one vertex pinned per connected component.
 struct DeformationTransfer::Reconstruction {
   VertexPartition partition;
@@ -152,9 +163,15 @@ DeformationTransfer::DeformationTransfer(Mesh source_rest, Mesh target_rest, Mar
   }
   if (!(options_.mismatch_threshold > 0.0)) throw InputError("the mismatch threshold must be positive");
 
-  target_weights_ = cotangent_weights(target_rest_);
-  if (options_.method == TransferMethod::Correspondence) setup_correspondence(progress);
+  const bool correspondence = options_.method == TransferMethod::Correspondence;
+  std::unique_ptr<Operators> source_operators;
+  tbb::parallel_invoke([&] { target_operators_ = std::make_unique<Operators>(target_rest_, options_.backend); },
+                       [&] {
+                         if (correspondence) source_operators = std::make_unique<Operators>(source_rest_, options_.backend);
+                       });
+  if (correspondence) setup_correspondence(*source_operators, progress);
   else setup_interpolation();
+  const CotangentWeights& target_weights = target_operators_->weights;
 
   // The Poisson system: the first marker of each connected component pinned.
   report("factoring the target's Poisson system");
@@ -162,7 +179,7 @@ DeformationTransfer::DeformationTransfer(Mesh source_rest, Mesh target_rest, Mar
   auto reconstruction_start = Clock::now();
   detail::DisjointSets components(static_cast<std::size_t>(target_rest_.vertex_count()));
   for (Eigen::Index t = 0; t < target_rest_.triangle_count(); ++t) {
-    if (target_weights_.kind[static_cast<std::size_t>(t)] != ElementKind::Regular) continue;
+    if (target_weights.kind[static_cast<std::size_t>(t)] != ElementKind::Regular) continue;
     components.unite(target_rest_.triangles(t, 0), target_rest_.triangles(t, 1));
     components.unite(target_rest_.triangles(t, 0), target_rest_.triangles(t, 2));
   }
@@ -176,12 +193,12 @@ DeformationTransfer::DeformationTransfer(Mesh source_rest, Mesh target_rest, Mar
   }
   std::sort(pins.begin(), pins.end());
   reconstruction_ = std::make_unique<Reconstruction>();
-  reconstruction_->system = factor(target_rest_, target_weights_, pins, reconstruction_->partition);
+  reconstruction_->system = factor(target_rest_, *target_operators_, pins, reconstruction_->partition);
   if (reconstruction_->partition.stray_components > 0) {
     warnings_.push_back(std::to_string(reconstruction_->partition.stray_components) +
                         " part(s) of the target hold no marker and stay where they are");
   }
-  reconstruction_->assembler = std::make_unique<PoissonAssembler>(target_rest_, target_weights_, *reconstruction_->system);
+  reconstruction_->assembler = std::make_unique<PoissonAssembler>(target_rest_, target_weights, *reconstruction_->system);
   target_maps_.assign(static_cast<std::size_t>(target_rest_.triangle_count()), Eigen::Matrix3d::Identity());
   setup_.reconstruction_ms = milliseconds_since(reconstruction_start);
   setup_.total_ms = milliseconds_since(start);
@@ -189,47 +206,47 @@ DeformationTransfer::DeformationTransfer(Mesh source_rest, Mesh target_rest, Mar
 
 DeformationTransfer::~DeformationTransfer() = default;
 
-std::unique_ptr<DirichletSystem> DeformationTransfer::factor(const Mesh& mesh, const CotangentWeights& weights, const std::vector<int>& fixed,
+std::unique_ptr<DirichletSystem> DeformationTransfer::factor(const Mesh& mesh, const Operators& operators, const std::vector<int>& fixed,
                                                              VertexPartition& partition) {
   EditConstraints constraints;
   constraints.fixed = fixed;
-  partition = partition_vertices(mesh, weights, constraints);
-  auto system = std::make_unique<DirichletSystem>(cotangent_laplacian(mesh, weights), partition, options_.backend);
+  partition = partition_vertices(mesh, operators.weights, constraints);
+  auto system = std::make_unique<DirichletSystem>(operators.laplacian, partition, options_.backend, operators.elimination_rank);
   ++factorizations_;
   return system;
 }
 
-void DeformationTransfer::setup_correspondence(const ProgressCallback& progress) {
+void DeformationTransfer::setup_correspondence(const Operators& source_operators, const ProgressCallback& progress) {
   const auto report = [&](std::string_view stage) {
     if (progress) progress(stage);
   };
   const auto k = markers_.size();
-  auto coordinates = [&](const Mesh& mesh, const CotangentWeights& weights, const std::vector<int>& markers, const char* which) {
+  auto coordinates = [&](const Mesh& mesh, const Operators& operators, const std::vector<int>& markers, const char* which) {
     report(std::string("harmonic coordinates on the ") + which + " (" + std::to_string(k) + " fields)");
     std::vector<int> fixed = markers;
     std::sort(fixed.begin(), fixed.end());
     VertexPartition partition;
-    const auto system = factor(mesh, weights, fixed, partition);
+    const auto system = factor(mesh, operators, fixed, partition);
     if (partition.stray_components > 0) {
       warnings_.push_back(std::to_string(partition.stray_components) + " part(s) of the " + which +
                           " hold no marker: their triangles all have the same coordinate");
     }
-    return barycenter_values(harmonic_coordinates(*system, partition, markers), mesh.triangles);
+    return triangle_coordinates(*system, partition, markers, mesh.triangles);
   };
   auto start = Clock::now();
   std::optional<trace::Scope> traced;
   traced.emplace("source harmonic coordinates", "set-up");
-  const Eigen::MatrixXd source_coordinates = coordinates(source_rest_, cotangent_weights(source_rest_), markers_.source, "source");
+  CoordinateRows source_coordinates = coordinates(source_rest_, source_operators, markers_.source, "source");
   setup_.source_coordinates_ms = milliseconds_since(start);
   start = Clock::now();
   traced.emplace("target harmonic coordinates", "set-up");
-  const Eigen::MatrixXd target_coordinates = coordinates(target_rest_, target_weights_, markers_.target, "target");
+  const CoordinateRows target_coordinates = coordinates(target_rest_, *target_operators_, markers_.target, "target");
   setup_.target_coordinates_ms = milliseconds_since(start);
 
   report("matching triangles");
   start = Clock::now();
   traced.emplace("matching", "set-up");
-  match_ = match_triangles(target_coordinates, source_coordinates, options_.top_n);
+  match_ = match_triangles(target_coordinates, std::move(source_coordinates), options_.top_n);
   mismatched_.resize(match_.source.size());
   for (std::size_t t = 0; t < mismatched_.size(); ++t) mismatched_[t] = !(match_.distance[t] <= options_.mismatch_threshold);
   setup_.matching_ms = milliseconds_since(start);
@@ -253,7 +270,7 @@ void DeformationTransfer::setup_correspondence(const ProgressCallback& progress)
     if (!fill.matched_triangles[v].empty()) known.push_back(static_cast<int>(v));
   }
   if (known.empty()) throw InputError("no target triangle matches a source triangle within the mismatch threshold: place markers on corresponding parts");
-  fill.system = factor(target_rest_, target_weights_, known, fill.partition);
+  fill.system = factor(target_rest_, *target_operators_, known, fill.partition);
   std::vector<bool> needed(static_cast<std::size_t>(target_rest_.vertex_count()), false);
   for (Eigen::Index row = 0; row < fill.system->free_count(); ++row) {
     for (const auto& entry : fill.system->coupling(static_cast<int>(row))) needed[static_cast<std::size_t>(entry.vertex)] = true;
@@ -279,7 +296,7 @@ void DeformationTransfer::setup_interpolation() {
   auto& fields = *marker_fields_;
   std::vector<int> fixed = markers_.target;
   std::sort(fixed.begin(), fixed.end());
-  fields.system = factor(target_rest_, target_weights_, fixed, fields.partition);
+  fields.system = factor(target_rest_, *target_operators_, fixed, fields.partition);
   fields.source_triangles.resize(markers_.size());
   std::vector<int> marker_of_vertex(static_cast<std::size_t>(source_rest_.vertex_count()), -1);
   for (std::size_t j = 0; j < markers_.size(); ++j) marker_of_vertex[static_cast<std::size_t>(markers_.source[j])] = static_cast<int>(j);

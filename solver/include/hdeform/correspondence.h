@@ -4,7 +4,10 @@
 // the target triangle's n largest components only (3 ≤ n ≤ k), which the paper found enough.
 // The map is not a bijection: source triangles may receive many target triangles or none.
 #include <Eigen/Core>
+
 #include <vector>
+
+#include "hdeform/harmonic_coordinates.h"
 
 namespace hdeform {
 
@@ -13,10 +16,11 @@ struct TriangleMatch {
   std::vector<double> distance;   // ... and the distance between their coordinates
 };
 
-// `target` is m_t × k, `source` m_s × k (one coordinate per row). top_n = 0 compares all k
-// components; otherwise 3 ≤ top_n ≤ k (throws std::invalid_argument outside). Exact nearest
-// neighbours, ties to the lower source row, found in one tree of balls and boxes over the source
+// `target` is m_t × k, `source` m_s × k (one coordinate per row; taken by value: the search
+// reorders its rows in place, so move it in when it is not needed after). top_n = 0 compares all
+// k components; otherwise 3 ≤ top_n ≤ k (throws std::invalid_argument outside). Exact nearest
+// neighbours, ties to the lower source row, found in one tree of boxes over the source
 // coordinates that serves all k components and every set of n alike; queries run in parallel.
-TriangleMatch match_triangles(const Eigen::MatrixXd& target, const Eigen::MatrixXd& source, int top_n = 0);
+TriangleMatch match_triangles(const CoordinateRows& target, CoordinateRows source, int top_n = 0);
 
 }  // namespace hdeform

@@ -105,10 +105,12 @@ class DeformationTransfer {
   struct MarkerFields;
   struct MismatchFill;
 
+  // A mesh's cotangent weights, its Laplacian and the AMD order of the whole Laplacian that every
+  // system on the mesh eliminates in: computed once per mesh (the target has up to three systems).
+  struct Operators;
   // Partitions with `fixed` (sorted) as the fixed vertices and factors L_ff; counts it.
-  std::unique_ptr<DirichletSystem> factor(const Mesh& mesh, const CotangentWeights& weights, const std::vector<int>& fixed,
-                                          VertexPartition& partition);
-  void setup_correspondence(const ProgressCallback& progress);
+  std::unique_ptr<DirichletSystem> factor(const Mesh& mesh, const Operators& operators, const std::vector<int>& fixed, VertexPartition& partition);
+  void setup_correspondence(const Operators& source_operators, const ProgressCallback& progress);
   void setup_interpolation();
   void fill_mismatches();
   void interpolate_marker_fields(const Eigen::MatrixXd& source_pose);
@@ -118,7 +120,7 @@ class DeformationTransfer {
   Mesh target_rest_;
   MarkerPairs markers_;
   TransferOptions options_;
-  CotangentWeights target_weights_;
+  std::unique_ptr<Operators> target_operators_;
   TriangleMatch match_;
   std::vector<bool> mismatched_;
   std::unique_ptr<Reconstruction> reconstruction_;
