@@ -137,6 +137,16 @@ TEST(HarmonicCoordinates, TrianglesAreTheMeanOfTheirCornersBitForBitAlsoWhereNoM
   EXPECT_EQ(Eigen::MatrixXd(rows), expected);
   EXPECT_EQ(rows.row(mesh.triangle_count() - 1), Eigen::RowVectorXd::Constant(7, 1.0 / 7.0));
   EXPECT_GT(rows.topRows(cactus.triangle_count()).col(3).maxCoeff(), 0.5);
+  // Matched from the vertices' coordinates (each query's row formed as it runs), the triangles
+  // find what the same rows written out find, to the bit.
+  const VertexCoordinates vertices(system, partition, markers);
+  const CoordinateRows source = rows.topRows(400);
+  for (const int top_n : {0, 3}) {
+    const TriangleMatch written = match_triangles(rows, source, top_n);
+    const TriangleMatch formed = match_triangles(vertices, mesh.triangles, source, top_n);
+    EXPECT_EQ(formed.source, written.source) << "top-n " << top_n;
+    EXPECT_EQ(formed.distance, written.distance) << "top-n " << top_n;
+  }
 }
 
 // Harmonic coordinates of a mesh's triangles, computed here as the transfer computes them.

@@ -1,6 +1,7 @@
 #include "hdeform/correspondence.h"
 
 #include <algorithm>
+#include <cstring>
 #include <cmath>
 #include <limits>
 #include <numeric>
@@ -13,14 +14,77 @@
 namespace hdeform {
 namespace {
 
-using Row = Eigen::Map<const Eigen::RowVectorXd>;
 
 // A lower bound computed in floating point may round above the true one; pruning a little less
 // keeps the search exact.
 constexpr double kBoundSlack = 1e-9;
 constexpr int kLeafSize = 12;
 constexpr int kParallelBuild = 2048;  // points below which a subtree is built on one thread
-constexpr int kBlock = 16;            // components summed between two checks of a bound
+
+// Eight doubles side by side: GCC lowers their arithmetic to the instruction set of the clone it
+// compiles (one AVX-512 register, two AVX2 or four SSE2 ones), lane by lane, so every clone sums
+// the same products in the same order and the distances are the same bits on any machine.
+typedef double Lanes __attribute__((vector_size(64)));
+typedef long long LaneMask __attribute__((vector_size(64)));
+constexpr int kLanes = 8;
+
+// (By reference: a 64-byte vector returned by value would change the calling convention between
+// the clones.)
+inline void load_lanes(Lanes& lanes, const double* values) { std::memcpy(&lanes, values, sizeof lanes); }
+inline double sum_of(const Lanes& lanes) { return ((lanes[0] + lanes[1]) + (lanes[2] + lanes[3])) + ((lanes[4] + lanes[5]) + (lanes[6] + lanes[7])); }
+inline void keep_positive(Lanes& lanes) {
+  const Lanes zero = {};
+  lanes = reinterpret_cast<Lanes>(reinterpret_cast<LaneMask>(lanes) & (lanes > zero));
+}
+
+// Σ (a_c − b_c)² over the k components, in blocks of 16 with the running sum checked after each:
+// past `limit`, a partial sum above it (the sum only grows).
+[[gnu::target_clones("avx512f", "avx2", "default")]] double squared_distance_lanes(const double* a, const double* b, int k, double limit) {
+  Lanes sum = {};
+  int c = 0;
+  for (; c + 2 * kLanes <= k; c += 2 * kLanes) {
+    for (int half = 0; half < 2; ++half) {
+      Lanes x, y;
+      load_lanes(x, a + c + half * kLanes);
+      load_lanes(y, b + c + half * kLanes);
+      const Lanes d = x - y;
+      sum += d * d;
+    }
+    if (const double total = sum_of(sum); total > limit) return total;
+  }
+  double total = sum_of(sum);
+  for (; c < k; ++c) total += (a[c] - b[c]) * (a[c] - b[c]);
+  return total;
+}
+
+// Σ gap_c² from the query to the box [low, high] over the k components, likewise.
+[[gnu::target_clones("avx512f", "avx2", "default")]] double box_distance_lanes(const double* query, const double* low, const double* high, int k,
+                                                                             double limit) {
+  Lanes sum = {};
+  int c = 0;
+  for (; c + 2 * kLanes <= k; c += 2 * kLanes) {
+    for (int half = 0; half < 2; ++half) {
+      const int at = c + half * kLanes;
+      Lanes q, below, above;
+      load_lanes(q, query + at);
+      load_lanes(below, low + at);
+      load_lanes(above, high + at);
+      below -= q;
+      above = q - above;
+      keep_positive(below);
+      keep_positive(above);
+      const Lanes gap = below + above;
+      sum += gap * gap;
+    }
+    if (const double total = sum_of(sum); total > limit) return total;
+  }
+  double total = sum_of(sum);
+  for (; c < k; ++c) {
+    const double gap = std::max(low[c] - query[c], 0.0) + std::max(query[c] - high[c], 0.0);
+    total += gap * gap;
+  }
+  return total;
+}
 
 // The source coordinates in a binary tree whose nodes each know the box around their points, in
 // all k components. The coordinates of a surface form a two-dimensional sheet in k dimensions:
@@ -132,14 +196,7 @@ class CoordinateTree {
   // The squared distance over the components; past `limit`, a partial sum above it.
   double squared_distance(const double* query, const std::vector<int>& components, const double* point,
                           double limit = std::numeric_limits<double>::infinity()) const {
-    if (components.empty()) {
-      double squared = 0.0;
-      for (int first = 0; first < k_ && squared <= limit; first += kBlock) {
-        const int width = std::min(kBlock, k_ - first);
-        squared += (Row(query + first, width) - Row(point + first, width)).squaredNorm();
-      }
-      return squared;
-    }
+    if (components.empty()) return squared_distance_lanes(query, point, k_, limit);
     double squared = 0.0;
     for (const int c : components) squared += (query[c] - point[c]) * (query[c] - point[c]);
     return squared;
@@ -152,14 +209,7 @@ class CoordinateTree {
     const double* low = low_.data() + offset;
     const double* high = high_.data() + offset;
     double to_box = 0.0;
-    if (search.components.empty()) {
-      for (int first = 0; first < k_ && to_box <= limit; first += kBlock) {
-        const int width = std::min(kBlock, k_ - first);
-        const Row query(search.query + first, width);
-        to_box += ((Row(low + first, width) - query).cwiseMax(0.0) + (query - Row(high + first, width)).cwiseMax(0.0)).squaredNorm();
-      }
-      return to_box;
-    }
+    if (search.components.empty()) return box_distance_lanes(search.query, low, high, k_, limit);
     for (const int c : search.components) {
       const double q = search.query[c];
       const double gap = std::max(low[c] - q, 0.0) + std::max(q - high[c], 0.0);
@@ -198,16 +248,14 @@ class CoordinateTree {
   CoordinateRows points_;           // the source rows in tree order
 };
 
-}  // namespace
-
-TriangleMatch match_triangles(const CoordinateRows& target, CoordinateRows source, int top_n) {
-  const auto k = static_cast<int>(source.cols());
-  if (target.cols() != k) throw std::invalid_argument("match_triangles: target and source coordinates differ in length");
+// The matching of `target_count` queries, query t's k values given by query_row(t, buffer) (a
+// buffer of 4k doubles per thread to form it in).
+template <class QueryRow>
+TriangleMatch match(Eigen::Index target_count, int k, QueryRow&& query_row, CoordinateRows source, int top_n) {
   if (top_n != 0 && (top_n < 3 || top_n > k)) {
     throw std::invalid_argument("top-n must be between 3 and the number of markers (" + std::to_string(k) + "), got " + std::to_string(top_n));
   }
   TriangleMatch match;
-  const auto target_count = static_cast<Eigen::Index>(target.rows());
   match.source.assign(static_cast<std::size_t>(target_count), -1);
   match.distance.assign(static_cast<std::size_t>(target_count), 0.0);
   if (target_count == 0 || source.rows() == 0) return match;
@@ -219,9 +267,10 @@ TriangleMatch match_triangles(const CoordinateRows& target, CoordinateRows sourc
   tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, target_count, 128), [&](const auto& range) {
     std::vector<int> components;
     std::vector<int> order(static_cast<std::size_t>(k));
+    std::vector<double> buffer(4 * static_cast<std::size_t>(k));
     int guess = 0;
     for (Eigen::Index t = range.begin(); t != range.end(); ++t) {
-      const double* query = target.row(t).data();
+      const double* query = query_row(t, buffer.data());
       if (top_n > 0) {
         // The n largest components, ties to the lower index.
         std::iota(order.begin(), order.end(), 0);
@@ -237,6 +286,23 @@ TriangleMatch match_triangles(const CoordinateRows& target, CoordinateRows sourc
     }
   });
   return match;
+}
+
+}  // namespace
+
+TriangleMatch match_triangles(const CoordinateRows& target, CoordinateRows source, int top_n) {
+  const auto k = static_cast<int>(source.cols());
+  if (target.cols() != k) throw std::invalid_argument("match_triangles: target and source coordinates differ in length");
+  return match(target.rows(), k, [&](Eigen::Index t, double*) { return target.row(t).data(); }, std::move(source), top_n);
+}
+
+TriangleMatch match_triangles(const VertexCoordinates& target, const Eigen::MatrixXi& target_triangles, CoordinateRows source, int top_n) {
+  const int k = target.columns();
+  if (source.cols() != k) throw std::invalid_argument("match_triangles: target and source coordinates differ in length");
+  return match(target_triangles.rows(), k, [&](Eigen::Index t, double* buffer) {
+    target.triangle_row(target_triangles, t, buffer, buffer + k);
+    return static_cast<const double*>(buffer);
+  }, std::move(source), top_n);
 }
 
 }  // namespace hdeform

@@ -22,5 +22,9 @@ struct TriangleMatch {
 // neighbours, ties to the lower source row, found in one tree of boxes over the source
 // coordinates that serves all k components and every set of n alike; queries run in parallel.
 TriangleMatch match_triangles(const CoordinateRows& target, CoordinateRows source, int top_n = 0);
+// The same with the target's coordinates per vertex: each target triangle's row, the mean of its
+// corners' (as triangle_coordinates gives it), is formed as its query runs, so the m_t × k
+// matrix is never written.
+TriangleMatch match_triangles(const VertexCoordinates& target, const Eigen::MatrixXi& target_triangles, CoordinateRows source, int top_n = 0);
 
 }  // namespace hdeform

@@ -7,6 +7,7 @@
 // corners' rows.
 #include <Eigen/Core>
 #include <span>
+#include <vector>
 
 #include "hdeform/constraints.h"
 #include "hdeform/dirichlet_system.h"
@@ -17,13 +18,34 @@ namespace hdeform {
 // reads.
 using CoordinateRows = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
 
-// `partition` must have exactly the markers as its fixed vertices, plus any stray vertices it
-// fixed itself (a component without a marker): those get 1/k in every column. n × k.
+// The vertices' coordinates as solved: the free vertices' rows (in the system's order, clamped)
+// and, implied, a marker's unit row or, for a stray vertex (a component without a marker, fixed
+// by the partition), 1/k everywhere. Independent of the system once made.
+class VertexCoordinates {
+ public:
+  // `partition` must have exactly the markers as its fixed vertices, plus any stray vertices.
+  VertexCoordinates(const DirichletSystem& system, const VertexPartition& partition, std::span<const int> markers);
+
+  Eigen::Index vertex_count() const { return static_cast<Eigen::Index>(row_of_vertex_.size()); }
+  int columns() const { return static_cast<int>(free_.cols()); }
+  // Vertex v's coordinates; `buffer` (columns() doubles) holds them for a constrained vertex.
+  const double* row(int v, double* buffer) const;
+  // A triangle's coordinates, the mean of its corners', into `out`; `scratch`: 3 × columns().
+  void triangle_row(const Eigen::MatrixXi& triangles, Eigen::Index t, double* out, double* scratch) const;
+
+ private:
+  CoordinateRows free_;
+  std::vector<int> row_of_vertex_;  // −1 for a constrained vertex
+  std::vector<int> marker_of_;      // its marker, −1 for a stray one
+  double stray_value_ = 0.0;
+};
+
+// n × k.
 Eigen::MatrixXd harmonic_coordinates(const DirichletSystem& system, const VertexPartition& partition, std::span<const int> markers);
 
-// The triangles' coordinates, the mean of their corners' (m × k): the same values as
-// barycenter_values(harmonic_coordinates(...), triangles), bit for bit, computed from the solve
-// without the n × k matrix between (for a camel with 124 markers, 22 MB less to write and read).
+// The triangles' coordinates (m × k): the same values as barycenter_values(harmonic_coordinates(...),
+// triangles), bit for bit, without the n × k matrix between.
+CoordinateRows triangle_coordinates(const VertexCoordinates& coordinates, const Eigen::MatrixXi& triangles);
 CoordinateRows triangle_coordinates(const DirichletSystem& system, const VertexPartition& partition, std::span<const int> markers,
                                     const Eigen::MatrixXi& triangles);
 
