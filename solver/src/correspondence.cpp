@@ -28,6 +28,20 @@ typedef double Lanes __attribute__((vector_size(64)));
 typedef long long LaneMask __attribute__((vector_size(64)));
 constexpr int kLanes = 8;
 
+// The clones are chosen by an ifunc resolver that runs while the program is being relocated,
+// before a sanitizer's runtime is up; instrumented, it crashes there (ThreadSanitizer did). The
+// sanitizer builds run the baseline alone: the same lanes, the same arithmetic.
+#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
+#define HDEFORM_LANE_CLONES
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer)
+#define HDEFORM_LANE_CLONES
+#endif
+#endif
+#ifndef HDEFORM_LANE_CLONES
+#define HDEFORM_LANE_CLONES [[gnu::target_clones("avx512f", "avx2", "default")]]
+#endif
+
 // (By reference: a 64-byte vector returned by value would change the calling convention between
 // the clones.)
 inline void load_lanes(Lanes& lanes, const double* values) { std::memcpy(&lanes, values, sizeof lanes); }
@@ -39,7 +53,7 @@ inline void keep_positive(Lanes& lanes) {
 
 // Σ (a_c − b_c)² over the k components, in blocks of 16 with the running sum checked after each:
 // past `limit`, a partial sum above it (the sum only grows).
-[[gnu::target_clones("avx512f", "avx2", "default")]] double squared_distance_lanes(const double* a, const double* b, int k, double limit) {
+HDEFORM_LANE_CLONES double squared_distance_lanes(const double* a, const double* b, int k, double limit) {
   Lanes sum = {};
   int c = 0;
   for (; c + 2 * kLanes <= k; c += 2 * kLanes) {
@@ -58,7 +72,7 @@ inline void keep_positive(Lanes& lanes) {
 }
 
 // Σ gap_c² from the query to the box [low, high] over the k components, likewise.
-[[gnu::target_clones("avx512f", "avx2", "default")]] double box_distance_lanes(const double* query, const double* low, const double* high, int k,
+HDEFORM_LANE_CLONES double box_distance_lanes(const double* query, const double* low, const double* high, int k,
                                                                              double limit) {
   Lanes sum = {};
   int c = 0;
