@@ -217,7 +217,7 @@ TEST(TreeFactorization, SupernodesGiveTheSimplicialFactorEntryByEntry) {
 
     const detail::PermutedMatrix ours = detail::permuted_matrix(matrix, factor_row);
     const detail::FactorPattern pattern = detail::analyse_pattern(ours, 2);
-    std::vector<double> row_value, column_value;
+    detail::UninitializedVector<double> row_value, column_value;
     ASSERT_TRUE(detail::factor_numeric(ours, pattern, row_value, column_value));
     ASSERT_EQ(pattern.nonzeros(), static_cast<std::size_t>(lower.nonZeros()));
     double column_error = 0.0, row_error = 0.0;

@@ -209,8 +209,8 @@ struct SparseCholesky::Analysis {
 
 struct SparseCholesky::Factor {
   std::shared_ptr<const Analysis> analysis = std::make_shared<Analysis>();
-  std::vector<double> row_value;     // L by rows (analysis->pattern.row_start/row_column); forward sweep
-  std::vector<double> column_value;  // L by stored columns (pattern.column_begin/end and rows); backward sweep
+  detail::UninitializedVector<double> row_value;     // L by rows (analysis->pattern.row_start/row_column); forward sweep
+  detail::UninitializedVector<double> column_value;  // L by stored columns (pattern.column_begin/end and rows); backward sweep
   bool reused_analysis = false;
 };
 

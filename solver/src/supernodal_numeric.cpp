@@ -156,11 +156,11 @@ bool factor_supernode(const PermutedMatrix& matrix, const Layout& layout, int s,
 
 }  // namespace
 
-bool factor_numeric(const PermutedMatrix& matrix, const FactorPattern& pattern, std::vector<double>& row_value,
-                    std::vector<double>& column_value) {
+bool factor_numeric(const PermutedMatrix& matrix, const FactorPattern& pattern, UninitializedVector<double>& row_value,
+                    UninitializedVector<double>& column_value) {
   const auto size = static_cast<std::size_t>(pattern.size());
   const Supernodes& super = pattern.supernodes;
-  row_value.resize(pattern.nonzeros());
+  row_value.resize(pattern.nonzeros());  // every entry is written once, by the thread of its supernode
   column_value.resize(pattern.nonzeros());
   std::size_t tallest = 0;
   for (int s = 0; s < super.count(); ++s) tallest = std::max(tallest, pattern.column_length(super.first_column[static_cast<std::size_t>(s)]));

@@ -22,6 +22,8 @@
 #include <span>
 #include <vector>
 
+#include "uninitialized_vector.h"
+
 namespace hdeform::detail {
 
 // Nodes of a tree split for `parts` workers: each subtree list (ascending) is closed under
@@ -89,14 +91,14 @@ struct FactorPattern {
   // L by rows (the forward sweep): row k is [row_start[k], row_start[k+1]), columns ascending,
   // diagonal last.
   std::vector<int> row_start;
-  std::vector<int> row_column;
+  UninitializedVector<int> row_column;
   // L by columns (the backward sweep), the columns stored last to first so that the sweep streams
   // forwards: column j's values are [column_begin[j], column_end[j]), rows ascending, diagonal
   // first, and its rows are rows[rows_of_column[j]] on (the end of its supernode's row list).
   std::vector<std::size_t> column_begin;
   std::vector<std::size_t> column_end;
   std::vector<std::size_t> rows_of_column;
-  std::vector<int> rows;
+  UninitializedVector<int> rows;
   std::vector<int> parent;
   EliminationSchedule schedule;  // for the solve sweeps: columns weighted by their length
   Supernodes supernodes;         // for the factorization (empty when another backend computed L)
@@ -116,8 +118,8 @@ struct FactorPattern {
 struct PermutedMatrix {
   std::vector<int> start;
   std::vector<int> diagonal;
-  std::vector<int> row;
-  std::vector<double> value;
+  UninitializedVector<int> row;
+  UninitializedVector<double> value;
 };
 PermutedMatrix permuted_matrix(const Eigen::SparseMatrix<double>& matrix, std::span<const int> factor_row);
 
@@ -134,7 +136,7 @@ FactorPattern analyse_pattern(const PermutedMatrix& matrix, int parts);
 
 // L's values in both layouts of `pattern` (row_value by rows, column_value by stored columns).
 // Returns false when the matrix is not positive definite.
-bool factor_numeric(const PermutedMatrix& matrix, const FactorPattern& pattern, std::vector<double>& row_value,
-                    std::vector<double>& column_value);
+bool factor_numeric(const PermutedMatrix& matrix, const FactorPattern& pattern, UninitializedVector<double>& row_value,
+                    UninitializedVector<double>& column_value);
 
 }  // namespace hdeform::detail
