@@ -1,3 +1,6 @@
+#include <tbb/task_arena.h>
+
+#include <memory>
 #include <random>
 
 #include "hdeform/deformation_field.h"
@@ -59,6 +62,33 @@ TEST(PoissonAssembler, AxialAndMatrixMapsGiveTheSameRightHandSide) {
   }
   EXPECT_GT(scale, 0.0);
   EXPECT_LE(worst, 1e-12 * scale);
+}
+
+// The assembler gathers each row's corners with one chunk of triangles per thread; the corners
+// must come out in triangle order whatever the chunks, so a right-hand side's bits do not depend
+// on the thread count of the arena the assembler was made in.
+TEST(PoissonAssembler, TheSameBitsWhateverTheThreadsThatGatheredTheCorners) {
+  auto shape = make_shape(ShapeKind::Cactus, 32);
+  const auto weights = cotangent_weights(shape.mesh);
+  const auto partition = partition_vertices(shape.mesh, weights, shape.demo_constraints);
+  const DirichletSystem system(cotangent_laplacian(shape.mesh, weights), partition, SolverBackend::Eigen);
+  std::mt19937 random(8);
+  std::uniform_real_distribution<double> uniform(-1.0, 1.0);
+  std::vector<Eigen::Matrix3d> maps(static_cast<std::size_t>(shape.mesh.triangle_count()));
+  for (auto& map : maps) map = Eigen::Matrix3d::NullaryExpr([&] { return uniform(random); });
+  std::vector<std::vector<double>> results;
+  for (const int threads : {1, 3, 5}) {
+    tbb::task_arena arena(threads);
+    const auto assembler = arena.execute([&] { return std::make_unique<PoissonAssembler>(shape.mesh, weights, system); });
+    ColumnBlocks rhs(system.free_count(), 3, SolveSchedule::Blocked);
+    assembler->assemble(maps, shape.mesh.positions, rhs);
+    std::vector<double>& values = results.emplace_back();
+    for (Eigen::Index row = 0; row < system.free_count(); ++row) {
+      for (int c = 0; c < 3; ++c) values.push_back(rhs.at(row, c));
+    }
+  }
+  EXPECT_EQ(results[1], results[0]);
+  EXPECT_EQ(results[2], results[0]);
 }
 
 TEST(PoissonAssembler, IdentityMapsGiveTheLaplacianOfThePositions) {

@@ -2,6 +2,10 @@
 
 #include <Eigen/Geometry>
 #include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include <algorithm>
+#include <utility>
 
 namespace hdeform {
 
@@ -9,32 +13,47 @@ PoissonAssembler::PoissonAssembler(const Mesh& rest, const CotangentWeights& wei
     : system_(system) {
   const auto& row_of_vertex = system.row_of_vertex();
   const auto rows = static_cast<std::size_t>(system.free_count());
-  corner_start_.assign(rows + 1, 0);
   auto active = [&](Eigen::Index t) { return weights.kind[static_cast<std::size_t>(t)] != ElementKind::Ignored; };
-  for (Eigen::Index t = 0; t < rest.triangle_count(); ++t) {
-    if (!active(t)) continue;
-    for (int k = 0; k < 3; ++k) {
-      const int row = row_of_vertex[static_cast<std::size_t>(rest.triangles(t, k))];
-      if (row >= 0) ++corner_start_[static_cast<std::size_t>(row) + 1];
+  // Each row's corners in triangle order. The triangles are cut into chunks, each chunk's corners
+  // counted per row, so that every chunk writes its corners where one pass in triangle order puts
+  // them: the same array, written on every thread (and its pages first touched there).
+  const int chunks = std::max(1, std::min(8, tbb::this_task_arena::max_concurrency()));
+  const Eigen::Index per_chunk = (rest.triangle_count() + chunks - 1) / chunks;
+  auto chunk_range = [&](int c) { return std::pair(c * per_chunk, std::min(rest.triangle_count(), (c + 1) * per_chunk)); };
+  std::vector<std::vector<std::size_t>> at(static_cast<std::size_t>(chunks), std::vector<std::size_t>(rows, 0));
+  tbb::parallel_for(0, chunks, [&](int c) {
+    auto& count = at[static_cast<std::size_t>(c)];
+    for (auto [t, end] = chunk_range(c); t < end; ++t) {
+      if (!active(t)) continue;
+      for (int k = 0; k < 3; ++k) {
+        if (const int row = row_of_vertex[static_cast<std::size_t>(rest.triangles(t, k))]; row >= 0) ++count[static_cast<std::size_t>(row)];
+      }
     }
+  });
+  corner_start_.assign(rows + 1, 0);
+  for (std::size_t r = 0; r < rows; ++r) {
+    std::size_t next = corner_start_[r];
+    for (auto& chunk : at) next += std::exchange(chunk[r], next);  // the chunk's count becomes where it starts
+    corner_start_[r + 1] = next;
   }
-  for (std::size_t r = 0; r < rows; ++r) corner_start_[r + 1] += corner_start_[r];
   corners_.resize(corner_start_.back());
-  std::vector<std::size_t> fill(corner_start_.begin(), corner_start_.end() - 1);
-  for (Eigen::Index t = 0; t < rest.triangle_count(); ++t) {
-    if (!active(t)) continue;
-    for (int k = 0; k < 3; ++k) {
-      const int row = row_of_vertex[static_cast<std::size_t>(rest.triangles(t, k))];
-      if (row < 0) continue;
-      // Corner k's edges are opposite corners k+2 (edge k,k+1) and k+1 (edge k,k+2).
-      const Eigen::Vector3d p = rest.positions.row(rest.triangles(t, k));
-      const Eigen::Vector3d next = rest.positions.row(rest.triangles(t, (k + 1) % 3));
-      const Eigen::Vector3d previous = rest.positions.row(rest.triangles(t, (k + 2) % 3));
-      const Eigen::Vector3d gradient = weights.half_cotangent(t, (k + 2) % 3) * (p - next) +
-                                       weights.half_cotangent(t, (k + 1) % 3) * (p - previous);
-      corners_[fill[static_cast<std::size_t>(row)]++] = {static_cast<int>(t), gradient};
+  tbb::parallel_for(0, chunks, [&](int c) {
+    auto& fill = at[static_cast<std::size_t>(c)];
+    for (auto [t, end] = chunk_range(c); t < end; ++t) {
+      if (!active(t)) continue;
+      for (int k = 0; k < 3; ++k) {
+        const int row = row_of_vertex[static_cast<std::size_t>(rest.triangles(t, k))];
+        if (row < 0) continue;
+        // Corner k's edges are opposite corners k+2 (edge k,k+1) and k+1 (edge k,k+2).
+        const Eigen::Vector3d p = rest.positions.row(rest.triangles(t, k));
+        const Eigen::Vector3d next = rest.positions.row(rest.triangles(t, (k + 1) % 3));
+        const Eigen::Vector3d previous = rest.positions.row(rest.triangles(t, (k + 2) % 3));
+        const Eigen::Vector3d gradient = weights.half_cotangent(t, (k + 2) % 3) * (p - next) +
+                                         weights.half_cotangent(t, (k + 1) % 3) * (p - previous);
+        corners_[fill[static_cast<std::size_t>(row)]++] = {static_cast<int>(t), gradient};
+      }
     }
-  }
+  });
 }
 
 template <class CornerSum>

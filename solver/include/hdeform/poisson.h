@@ -36,7 +36,11 @@ class PoissonAssembler {
   void assemble_rows(const Eigen::MatrixXd& positions, ColumnBlocks& rhs, int first_column, CornerSum corner_sum) const;
 
   struct Corner {
-    int triangle;
+    // User-provided, so that resizing leaves the corners to the threads that fill them (an
+    // implicit constructor would have them zero-filled on one thread first).
+    Corner() {}  // NOLINT(modernize-use-equals-default)
+    Corner(int t, const Eigen::Vector3d& g) : triangle(t), gradient(g) {}
+    int triangle = 0;
     Eigen::Vector3d gradient;  // g_{t,i}
   };
   const DirichletSystem& system_;
