@@ -34,9 +34,9 @@ struct Layout {
   // The rows of supernode s: its first column's rows, diagonal first.
   const int* rows(int s) const { return pattern.rows.data() + pattern.supernodes.rows_at[static_cast<std::size_t>(s)]; }
   int row_count(int s) const { return static_cast<int>(pattern.column_length(first_column(s))); }
-  // Column k of s so that column(s, k)[i] is the entry of s's row i (i ≥ k).
-  const double* column(int s, int k) const {
-    return column_value + pattern.column_begin[static_cast<std::size_t>(first_column(s) + k)] - k;
+  // Column k of s from s's row `from` on (from ≥ k: the column starts at its diagonal, row k).
+  const double* column(int s, int k, int from) const {
+    return column_value + pattern.column_begin[static_cast<std::size_t>(first_column(s) + k)] + (from - k);
   }
 };
 
@@ -56,7 +56,7 @@ void subtract_update(const Layout& layout, const Supernodes::Update& update, int
     w.block.resize(static_cast<std::size_t>(length) * static_cast<std::size_t>(width));
     w.product.resize(static_cast<std::size_t>(length) * static_cast<std::size_t>(targets));
     for (int k = 0; k < width; ++k) {
-      const double* column = layout.column(d, k) + update.first;
+      const double* column = layout.column(d, k, update.first);
       std::copy(column, column + length, w.block.data() + static_cast<std::size_t>(k) * static_cast<std::size_t>(length));
     }
     const ConstPanelMap block(w.block.data(), length, width, Stride(length));
@@ -74,14 +74,14 @@ void subtract_update(const Layout& layout, const Supernodes::Update& update, int
   for (int j = 0; j < targets; ++j) {
     double* out = panel + static_cast<std::ptrdiff_t>(rows[j] - panel_first_column) * panel_rows;
     if (width == 1) {
-      const double* column = layout.column(d, 0) + update.first;
+      const double* column = layout.column(d, 0, update.first);
       const double scale = column[j];
       for (int i = j; i < length; ++i) out[target[i]] -= column[i] * scale;
       continue;
     }
     std::fill(sum + j, sum + length, 0.0);
     for (int k = 0; k < width; ++k) {
-      const double* column = layout.column(d, k) + update.first;
+      const double* column = layout.column(d, k, update.first);
       const double scale = column[j];
       for (int i = j; i < length; ++i) sum[i] += column[i] * scale;
     }

@@ -165,10 +165,16 @@ DeformationTransfer::DeformationTransfer(Mesh source_rest, Mesh target_rest, Mar
 
   const bool correspondence = options_.method == TransferMethod::Correspondence;
   std::unique_ptr<Operators> source_operators;
-  tbb::parallel_invoke([&] { target_operators_ = std::make_unique<Operators>(target_rest_, options_.backend); },
-                       [&] {
-                         if (correspondence) source_operators = std::make_unique<Operators>(source_rest_, options_.backend);
-                       });
+  tbb::parallel_invoke(
+      [&] {
+        const trace::Scope traced("target operators (weights, Laplacian, elimination order)", "set-up");
+        target_operators_ = std::make_unique<Operators>(target_rest_, options_.backend);
+      },
+      [&] {
+        if (!correspondence) return;
+        const trace::Scope traced("source operators (weights, Laplacian, elimination order)", "set-up");
+        source_operators = std::make_unique<Operators>(source_rest_, options_.backend);
+      });
   if (correspondence) setup_correspondence(*source_operators, progress);
   else setup_interpolation();
   const CotangentWeights& target_weights = target_operators_->weights;
