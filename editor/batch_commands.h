@@ -2,7 +2,7 @@
 // The batch subcommands of `hdeform`: each registers its options on a CLI11 subcommand and
 // runs when it is selected. A run returns the exit code; it throws UsageError (exit 2) for a
 // wrong command line and InputError or SolveError (exit 1) for bad data.
-#include <CLI/CLI.hpp>
+#include "cli_fwd.h"
 
 namespace hdeform::cli {
 

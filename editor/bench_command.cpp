@@ -1,7 +1,9 @@
 // hdeform bench: the figures of the README's Performance section, as one JSON object.
+#include <CLI/CLI.hpp>
 #include <chrono>
 #include <fstream>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <random>
 
 #include "batch_commands.h"

@@ -1,6 +1,7 @@
 #include "hdeform/stopwatch.h"
 #include "cli_support.h"
 
+#include <CLI/CLI.hpp>
 #include <sstream>
 #include "hdeform/constraint_io.h"
 #include "hdeform/errors.h"
@@ -16,6 +17,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <iostream>
 #include <mutex>
 

@@ -1,8 +1,8 @@
 #pragma once
 // What every batch command shares: where its mesh comes from, progress on stderr, thread
 // control, and the usage error that maps to exit code 2.
-#include <CLI/CLI.hpp>
-#include <nlohmann/json.hpp>
+#include "cli_fwd.h"
+#include <nlohmann/json_fwd.hpp>
 #include <tbb/global_control.h>
 
 #include <chrono>

@@ -1,7 +1,9 @@
 // hdeform correspondence: the §6 triangle correspondence on its own, as a map file and as the
 // paper's Figure 4 (the target coloured by position, the source in the colours of the target
 // triangles matched to it).
+#include <CLI/CLI.hpp>
 #include <fstream>
+#include <nlohmann/json.hpp>
 
 #include "batch_commands.h"
 #include "cli_support.h"

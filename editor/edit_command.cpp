@@ -1,5 +1,7 @@
 // hdeform edit: the paper's editing pipeline in batch, optionally as a simulated drag.
+#include <CLI/CLI.hpp>
 #include <chrono>
+#include <nlohmann/json.hpp>
 #include <numbers>
 #include <unordered_map>
 

@@ -1,5 +1,9 @@
 // hdeform field: the harmonic guidance field (paper §5) for given sources and sinks.
 #include "batch_commands.h"
+
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+
 #include "cli_support.h"
 #include "hdeform/constraint_io.h"
 #include "hdeform/dirichlet_system.h"

@@ -1,5 +1,7 @@
 // hdeform gui: the interactive editor.
 #include "batch_commands.h"
+
+#include <CLI/CLI.hpp>
 #include "cli_support.h"
 #include "gui/editor_app.h"
 

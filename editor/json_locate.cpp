@@ -1,6 +1,7 @@
 #include "json_locate.h"
 
 #include <cctype>
+#include <nlohmann/json.hpp>
 #include <vector>
 
 namespace hdeform::cli {

@@ -5,6 +5,7 @@
 #include <atomic>
 #include <cmath>
 #include <chrono>
+#include <nlohmann/json.hpp>
 #include <thread>
 
 #include "cli_support.h"

@@ -1,5 +1,9 @@
 // hdeform render: a PNG of a mesh with its field, vertex classes and markers (offscreen).
 #include "batch_commands.h"
+
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+
 #include "cli_support.h"
 #include "hdeform/constraint_io.h"
 #include "hdeform/dirichlet_system.h"

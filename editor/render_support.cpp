@@ -1,7 +1,9 @@
 #include "render_support.h"
 
+#include <CLI/CLI.hpp>
 #include <chrono>
 #include <cmath>
+#include <nlohmann/json.hpp>
 #include <numbers>
 #include <sstream>
 

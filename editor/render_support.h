@@ -1,7 +1,7 @@
 #pragma once
 // Picture options shared by `hdeform render` and the --png options of edit and field.
-#include <CLI/CLI.hpp>
-#include <nlohmann/json.hpp>
+#include "cli_fwd.h"
+#include <nlohmann/json_fwd.hpp>
 
 #include <optional>
 #include <span>

@@ -1,7 +1,9 @@
 // hdeform transfer: the poses of a source mesh copied onto a target (paper §6 or §7).
+#include <CLI/CLI.hpp>
 #include <chrono>
 #include <filesystem>
 #include <map>
+#include <nlohmann/json.hpp>
 
 #include "batch_commands.h"
 #include "cli_support.h"

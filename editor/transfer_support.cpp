@@ -1,5 +1,8 @@
 #include "transfer_support.h"
 
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
+
 #include "hdeform/mesh_io.h"
 
 namespace hdeform::cli {

@@ -1,8 +1,8 @@
 #pragma once
 // What `hdeform transfer` and `hdeform correspondence` share: the source and target meshes, the
 // marker pairs and the method's options.
-#include <CLI/CLI.hpp>
-#include <nlohmann/json.hpp>
+#include "cli_fwd.h"
+#include <nlohmann/json_fwd.hpp>
 
 #include <string>
 

@@ -1,4 +1,5 @@
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <numbers>
 
 #include "hdeform/deformer.h"

@@ -1,6 +1,8 @@
 // The editor window: set-up, the frame loop, pacing, rendering and the drag benchmark.
 #include "gui/editor_app_parts.h"
 
+#include <nlohmann/json.hpp>
+
 namespace hdeform::cli::gui {
 
 namespace {

@@ -1,6 +1,8 @@
 // The editor window: opening meshes and sessions, the recovery files and the restore prompt, actions and undo, saving.
 #include "gui/editor_app_parts.h"
 
+#include <nlohmann/json.hpp>
+
 namespace hdeform::cli::gui {
 
 void EditorApp::start_from_options() {

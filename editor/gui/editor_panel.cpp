@@ -1,6 +1,8 @@
 // The editor window: the side panel (controls, pose fields, live figures, status) and the dialogs.
 #include "gui/editor_app_parts.h"
 
+#include <nlohmann/json.hpp>
+
 namespace hdeform::cli::gui {
 
 void EditorApp::draw_panel() {

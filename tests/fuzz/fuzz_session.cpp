@@ -1,4 +1,6 @@
 // Session reader, then the checks against a mesh that loading a session runs.
+#include <nlohmann/json.hpp>
+
 #include "fuzz_input.h"
 #include "session.h"
 
