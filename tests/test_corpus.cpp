@@ -7,6 +7,7 @@
 
 #include <array>
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <future>
 #include <map>
@@ -24,9 +25,17 @@ const std::filesystem::path kCorpus = std::filesystem::path(HDEFORM_SOURCE_DIR) 
 
 using Outcome = test::CommandOutcome;
 
-// Runs hdeform with `arguments` in `folder` (its working directory).
+// Runs hdeform with `arguments` in `folder` (its working directory). A command that draws gets
+// back the Vulkan driver that sanitizer runs preload (tests/CMakeLists.txt says why the others
+// start without it).
 Outcome run_in(const std::filesystem::path& folder, const std::string& arguments) {
-  return test::run_command("cd '" + folder.string() + "' && " + HDEFORM_EXECUTABLE + " " + arguments, folder);
+  std::string preload;
+  if (arguments.starts_with("render ")) {
+    if (const char* driver = std::getenv("HDEFORM_VULKAN_PRELOAD"); driver != nullptr && *driver != '\0') {
+      preload = "LD_PRELOAD='" + std::string(driver) + "' ";
+    }
+  }
+  return test::run_command("cd '" + folder.string() + "' && " + preload + HDEFORM_EXECUTABLE + " " + arguments, folder);
 }
 
 std::set<std::string> listing(const std::filesystem::path& folder) {
