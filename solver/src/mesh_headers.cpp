@@ -1,6 +1,7 @@
 #include "mesh_headers.h"
 
 #include <algorithm>
+#include <cctype>
 #include <array>
 #include <optional>
 #include <vector>
@@ -50,7 +51,45 @@ struct PlyElement {
   std::size_t properties = 0;
   std::vector<std::string_view> scalar_names;
   std::vector<std::string_view> list_names;
+  std::vector<std::size_t> longest_lists;  // per property in order: 0 for a scalar, else what its length type holds
 };
+
+// An ASCII body writes a list's length as text, which its type does not bound, and OpenMesh reads
+// as many items as the length says, whatever follows (a 228-byte file asking for 7.8e17 items ran
+// until the fuzzer's timeout). Each length is checked here first; a body that ends early is left to
+// the reader, which reports it.
+void check_ascii_list_lengths(const std::filesystem::path& path, std::string_view body, std::size_t first_line,
+                              const std::vector<PlyElement>& elements) {
+  std::size_t position = 0;
+  std::size_t line = first_line;
+  auto next_token = [&]() -> std::optional<std::string_view> {
+    while (position < body.size() && std::isspace(static_cast<unsigned char>(body[position]))) {
+      if (body[position] == '\n') ++line;
+      ++position;
+    }
+    if (position == body.size()) return std::nullopt;
+    const std::size_t start = position;
+    while (position < body.size() && !std::isspace(static_cast<unsigned char>(body[position]))) ++position;
+    return body.substr(start, position - start);
+  };
+  for (const auto& element : elements) {
+    for (std::size_t item = 0; item < element.count; ++item) {
+      for (const std::size_t longest : element.longest_lists) {
+        const auto token = next_token();
+        if (!token) return;
+        if (longest == 0) continue;
+        const auto length = parse_integer(*token);
+        if (!length || *length < 0 || static_cast<unsigned long long>(*length) > longest) {
+          fail_at(path, line, "element " + quoted(element.name) + " item " + std::to_string(item) + " has a list of length " +
+                                  quoted(*token) + " (its length type holds 0 to " + std::to_string(longest) + ")");
+        }
+        for (long long i = 0; i < *length; ++i) {
+          if (!next_token()) return;
+        }
+      }
+    }
+  }
+}
 
 }  // namespace
 
@@ -105,11 +144,13 @@ void check_ply_header(const std::filesystem::path& path, std::string_view conten
         }
         element.fixed_bytes += *length_size;
         element.list_names.push_back(tokens[4]);
+        element.longest_lists.push_back(*length_size == 1 ? 255 : 65535);
       } else if (tokens.size() == 3) {
         const auto size = ply_type_size(tokens[1]);
         if (!size) fail_at(path, line_number, "unknown property type " + quoted(tokens[1]));
         element.fixed_bytes += *size;
         element.scalar_names.push_back(tokens[2]);
+        element.longest_lists.push_back(0);
       } else {
         fail_at(path, line_number, "a property needs a type and a name: " + quoted(line));
       }
@@ -149,6 +190,7 @@ void check_ply_header(const std::filesystem::path& path, std::string_view conten
                                    std::to_string(face->count) + " faces need at least " + std::to_string(least_bytes) +
                                    " bytes; " + std::to_string(body) + " follow the header)");
   }
+  if (!binary) check_ascii_list_lengths(path, content.substr(std::min(*body_start, content.size())), line_number + 1, elements);
 }
 
 Mesh parse_off(const std::filesystem::path& path, std::string_view content) {

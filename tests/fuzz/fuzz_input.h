@@ -10,6 +10,7 @@
 #include <fstream>
 #include <string>
 
+#include <fcntl.h>
 #include <tbb/global_control.h>
 #include <unistd.h>
 
@@ -17,26 +18,39 @@
 
 namespace hdeform::fuzz {
 
+// The path reads the same in every process: libFuzzer's comparison tracing sees the bytes the
+// readers compare, the path among them, and with a process id in the name two seeded runs of the
+// same commit kept different inputs (lists, 50,000 inputs: 928 and 985 new units; in a fresh pid
+// namespace each, 982 and 982). The file lies in a private folder reached through a descriptor
+// with a fixed number: /proc/self/fd/N/input.EXT.
 class InputFile {
  public:
-  // The name has the same length in every process: messages quote it, and a length that varied
-  // with the pid would vary the coverage, so that a seeded run would not repeat itself.
-  explicit InputFile(const std::string& extension) : path_(std::filesystem::temp_directory_path() / name(extension)) {}
+  explicit InputFile(const std::string& extension) {
+    std::string folder = (std::filesystem::temp_directory_path() / "hdeform-fuzz-XXXXXX").string();
+    if (::mkdtemp(folder.data()) == nullptr) fail("cannot make a folder for the input: " + folder);
+    folder_ = folder;
+    const int descriptor = ::open(folder.c_str(), O_PATH | O_DIRECTORY | O_CLOEXEC);
+    if (descriptor < 0 || ::dup2(descriptor, kFolderDescriptor) < 0) fail("cannot open the input's folder " + folder);
+    ::close(descriptor);
+    path_ = "/proc/self/fd/" + std::to_string(kFolderDescriptor) + "/input" + extension;
+    real_path_ = folder_ / ("input" + extension);
+  }
   ~InputFile() {
     std::error_code ignored;
-    std::filesystem::remove(path_, ignored);
+    std::filesystem::remove(real_path_, ignored);
+    std::filesystem::remove(folder_, ignored);
   }
   InputFile(const InputFile&) = delete;
   InputFile& operator=(const InputFile&) = delete;
   const std::filesystem::path& path() const { return path_; }
 
  private:
-  static std::string name(const std::string& extension) {
-    char pid[16];
-    std::snprintf(pid, sizeof pid, "%010d", static_cast<int>(::getpid()));
-    return "hdeform-fuzz-" + std::string(pid) + extension;
+  static constexpr int kFolderDescriptor = 900;  // below the usual limit of 1024 open files
+  [[noreturn]] static void fail(const std::string& what) {
+    std::fprintf(stderr, "fuzz: %s\n", what.c_str());
+    std::abort();
   }
-  std::filesystem::path path_;
+  std::filesystem::path folder_, path_, real_path_;
 };
 
 // One thread: how a parallel loop splits its range depends on timing, and so would the coverage
