@@ -1,8 +1,8 @@
 #include "mesh_headers.h"
 
 #include <algorithm>
-#include <cctype>
 #include <array>
+#include <cctype>
 #include <optional>
 #include <vector>
 
@@ -78,12 +78,12 @@ void check_ascii_list_lengths(const std::filesystem::path& path, std::string_vie
         const auto token = next_token();
         if (!token) return;
         if (longest == 0) continue;
-        const auto length = parse_integer(*token);
-        if (!length || *length < 0 || static_cast<unsigned long long>(*length) > longest) {
+        const auto length = parse_count(*token);
+        if (!length || *length > longest) {
           fail_at(path, line, "element " + quoted(element.name) + " item " + std::to_string(item) + " has a list of length " +
                                   quoted(*token) + " (its length type holds 0 to " + std::to_string(longest) + ")");
         }
-        for (long long i = 0; i < *length; ++i) {
+        for (std::size_t i = 0; i < *length; ++i) {
           if (!next_token()) return;
         }
       }
