@@ -1,5 +1,6 @@
 // PLY, OFF and STL: each format written here by an independent writer, then read by the library
-// (OpenMesh's readers into hdeform's arrays) and compared with the OBJ reader on the same mesh.
+// (PLY and OFF by its own readers, STL by OpenMesh's into hdeform's arrays) and compared with the
+// OBJ reader on the same mesh.
 #include <gtest/gtest.h>
 
 #include <array>
@@ -9,6 +10,7 @@
 #include <cstring>
 #include <limits>
 #include <map>
+#include <type_traits>
 
 #include "hdeform/errors.h"
 #include "hdeform/mesh_io.h"
@@ -18,8 +20,8 @@
 namespace hdeform {
 namespace {
 
-// The cactus with every coordinate rounded to single precision, so that every format (STL and
-// OpenMesh's readers keep floats) holds it exactly.
+// The cactus with every coordinate rounded to single precision, so that every format (STL and a
+// PLY float property hold floats) holds it exactly.
 Mesh float_exact_cactus() {
   Mesh mesh = make_shape(ShapeKind::Cactus, 12).mesh;
   mesh.positions = mesh.positions.cast<float>().cast<double>();
@@ -178,14 +180,14 @@ TEST(MeshFormats, StlCornersBecomeVerticesInTheOrderTheyFirstOccur) {
   }
 }
 
-TEST(MeshFormats, WrittenPlyReadsBackWithItsOrderAndSinglePrecisionCoordinates) {
+TEST(MeshFormats, WrittenPlyReadsBackExactly) {
   const test::TempDir dir;
   const Mesh mesh = make_shape(ShapeKind::Bar, 12).mesh;
   write_mesh(dir.file("bar.ply"), mesh);
   const Mesh back = read_mesh(dir.file("bar.ply"));
   EXPECT_EQ(back.triangles, mesh.triangles);
-  // OpenMesh's readers hold coordinates as floats: what comes back is the float nearest each.
-  EXPECT_EQ(back.positions, mesh.positions.cast<float>().cast<double>());
+  // Written as double properties, read as doubles: every bit comes back.
+  EXPECT_EQ(back.positions, mesh.positions);
   write_mesh(dir.file("bar.obj"), mesh);
   EXPECT_EQ(read_mesh(dir.file("bar.obj")).positions, mesh.positions);
   EXPECT_THROW(write_mesh(dir.file("bar.stl"), mesh), InputError);
@@ -270,12 +272,135 @@ TEST(MeshFormats, MalformedFilesNameTheFileAndTheProblem) {
   expect_refused(dir, "face-short.off", "OFF\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n4 0 1 2\n", ":6: face 0 declares 4 vertices but its line holds 3 numbers");
   expect_refused(dir, "vertex-short.off", "OFF\n3 1 0\n0 0 0\n1 0\n0 1 0\n3 0 1 2\n", ":4: vertex 1 needs 3 coordinates, found 2");
   expect_refused(dir, "ends-early.off", "OFF\n3 2 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n", ":6: the file ends after 3 of 3 vertices and 1 of 2 faces");
-  expect_refused(dir, "wide-list.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
-                 "element face 1\nproperty list int int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n",
-                 ":8: list lengths of type 'int' are not read (uchar or ushort)");
   expect_refused(dir, "garbage.stl", "\x01\x02 not an STL", "neither ASCII STL");
-  expect_refused(dir, "empty.stl", "", "neither ASCII STL");
+  expect_refused(dir, "empty.stl", "", "an empty file");
   expect_refused(dir, "points.xyz", "0 0 0\n", "unknown mesh format '.xyz' (.obj, .ply, .off or .stl)");
+}
+
+// A PLY body written value by value, as text or as little-endian bytes.
+struct PlyBody {
+  bool binary = false;
+  std::string out;
+
+  template <class T>
+  void put(T value) {
+    if (binary) {
+      put_little_endian(out, value);
+    } else {
+      out += std::is_floating_point_v<T> ? decimal(static_cast<double>(value)) : std::to_string(value);
+      out += ' ';
+    }
+  }
+  void end_line() {
+    if (!binary) out += '\n';
+  }
+};
+
+// Lists in every element, of every length type, before and after the ones a mesh is made of; an
+// obj_info line holding header words; an element after the faces that is never read. OpenMesh
+// read a vertex's list as one value and took the obj_info words for a header line.
+std::string ply_with_lists_everywhere(const Mesh& mesh, bool binary) {
+  std::string text = std::string("ply\nformat ") + (binary ? "binary_little_endian" : "ascii") +
+                     " 1.0\ncomment lists everywhere\nobj_info element face 99 property list int int vertex_indices\n"
+                     "element material 2\nproperty list int float ambient\nproperty uchar id\n"
+                     "element vertex " + std::to_string(mesh.vertex_count()) +
+                     "\nproperty float x\nproperty list ushort float normal_list\nproperty float y\nproperty float z\nproperty double quality\n"
+                     "element face " + std::to_string(mesh.triangle_count()) +
+                     "\nproperty uchar red\nproperty list int uint vertex_indices\nproperty list uchar float texcoord\n"
+                     "element edge 1\nproperty int vertex1\nproperty int vertex2\nend_header\n";
+  PlyBody body{binary, {}};
+  body.put(std::int32_t{3});
+  for (const float value : {0.1f, 0.2f, 0.3f}) body.put(value);
+  body.put(std::uint8_t{7});
+  body.end_line();
+  body.put(std::int32_t{0});
+  body.put(std::uint8_t{8});
+  body.end_line();
+  for (Eigen::Index v = 0; v < mesh.vertex_count(); ++v) {
+    body.put(static_cast<float>(mesh.positions(v, 0)));
+    body.put(std::uint16_t{2});
+    body.put(1.5f);
+    body.put(-2.0f);
+    body.put(static_cast<float>(mesh.positions(v, 1)));
+    body.put(static_cast<float>(mesh.positions(v, 2)));
+    body.put(0.25);
+    body.end_line();
+  }
+  for (Eigen::Index t = 0; t < mesh.triangle_count(); ++t) {
+    body.put(std::uint8_t{200});
+    body.put(std::int32_t{3});
+    if (t % 2 == 1) body.end_line();  // a face split over lines reads the same
+    for (int c = 0; c < 3; ++c) body.put(static_cast<std::uint32_t>(mesh.triangles(t, c)));
+    body.put(std::uint8_t{6});
+    for (int k = 0; k < 6; ++k) body.put(0.5f * static_cast<float>(k));
+    body.end_line();
+  }
+  text += body.out;
+  return text + (binary ? std::string(8, '\xff') : std::string("never read\n"));
+}
+
+TEST(MeshFormats, PlyListsOfAnyLengthTypeAreReadPastInEveryElement) {
+  const test::TempDir dir;
+  const Mesh mesh = float_exact_cactus();
+  for (const bool binary : {false, true}) {
+    SCOPED_TRACE(binary ? "binary" : "ascii");
+    dir.write("lists.ply", ply_with_lists_everywhere(mesh, binary));
+    expect_same_mesh(read_mesh(dir.file("lists.ply")), mesh);
+  }
+}
+
+TEST(MeshFormats, PlyElementsInAnyOrderAndCoordinatesInTheirDeclaredPrecision) {
+  const test::TempDir dir;
+  // An element without properties holds nothing, however many items it declares.
+  dir.write("order.ply", "ply\nformat ascii 1.0\nelement nothing 2000000000\nelement face 1\nproperty list uchar int vertex_index\n"
+                         "element vertex 3\nproperty float x\nproperty double y\nproperty float z\nend_header\n"
+                         "3 2 0 1\n0.1 0.1 0.1\n1 0 0\n0 1 0\n");
+  const Mesh mesh = read_mesh(dir.file("order.ply"));
+  ASSERT_EQ(mesh.vertex_count(), 3);
+  ASSERT_EQ(mesh.triangle_count(), 1);
+  EXPECT_EQ(mesh.triangles.row(0), Eigen::RowVector3i(2, 0, 1));
+  // A float property holds the float nearest what was written; a double the double.
+  EXPECT_EQ(mesh.positions(0, 0), static_cast<double>(0.1f));
+  EXPECT_EQ(mesh.positions(0, 1), 0.1);
+  EXPECT_EQ(mesh.positions(0, 2), static_cast<double>(0.1f));
+  EXPECT_NE(0.1, static_cast<double>(0.1f));
+}
+
+// Every list length is checked against its type and against what the rest of the file could
+// hold before anything is reserved (OpenMesh took a 4e9 length from a 300-byte file and
+// allocated until the fuzzer stopped it at 2 GB).
+TEST(MeshFormats, PlyListsLongerThanTheFileAreRefusedBeforeAnythingIsReserved) {
+  const test::TempDir dir;
+  auto ascii = [](const std::string& list_type, const std::string& face) {
+    return "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\n"
+           "property list " + list_type + " vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n" + face + "\n";
+  };
+  expect_refused(dir, "uint.ply", ascii("uint int", "4000000000 0 1 2"),
+                 ":13: element 'face' item 0 property 'vertex_indices' has a list of length 4000000000, more than the rest of the file holds");
+  expect_refused(dir, "uchar.ply", ascii("uchar int", "300 0 1 2"), ":13: element 'face' item 0 property 'vertex_indices' has a list of "
+                                                                     "length 300 (its length type 'uchar' holds 0 to 255)");
+  expect_refused(dir, "negative.ply", ascii("int int", "-3 0 1 2"), "has a list of length -3 (its length type 'int' holds 0 to 2147483647)");
+  expect_refused(dir, "exponent.ply", ascii("uchar int", "3e0 0 1 2"), ":13: '3e0' is not an integer (element 'face' item 0 property 'vertex_indices'");
+  expect_refused(dir, "float-length.ply", ascii("float int", "3 0 1 2"), ":8: a list length of type 'float' (an integer type is needed)");
+  expect_refused(dir, "float-index.ply", ascii("uchar float", "3 0 1 2"), ":8: vertex indices of type 'float' (an integer type is needed)");
+  expect_refused(dir, "word.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+                                  "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 zero 0\n0 1 0\n3 0 1 2\n",
+                 ":11: 'zero' is not a number (element 'vertex' item 1 property 'y')");
+  expect_refused(dir, "twice.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nelement vertex 3\n", ":5: a second element 'vertex' (the first is on line 3)");
+  expect_refused(dir, "list-x.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty list uchar float x\nproperty float y\nproperty float z\n"
+                                    "element face 1\nproperty list uchar int vertex_indices\nend_header\n",
+                 ":4: the vertex property 'x' is a list (a number is needed)");
+
+  std::string binary = "ply\nformat binary_little_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+                       "element face 1\nproperty list uint int vertex_indices\nproperty uchar red\nend_header\n";
+  const std::size_t body = binary.size();
+  for (int k = 0; k < 9; ++k) put_little_endian(binary, static_cast<float>(k));
+  put_little_endian(binary, std::uint32_t{0xffffffff});
+  for (int k = 0; k < 3; ++k) put_little_endian(binary, std::int32_t{k});
+  expect_refused(dir, "binary.ply", binary, ": byte " + std::to_string(body + 36) + ": element 'face' item 0 property 'vertex_indices' has a "
+                                           "list of length 4294967295, more than the rest of the file holds");
+  binary.replace(body + 36, 4, std::string("\3\0\0\0", 4));  // a length that fits, and then no byte for 'red'
+  expect_refused(dir, "short.ply", binary, ": byte " + std::to_string(body + 52) + ": the file ends before element 'face' item 0 property 'red' (the header declares 1)");
 }
 
 TEST(MeshFormats, TheBenchmarkMeshesReadAlikeInEveryFormat) {

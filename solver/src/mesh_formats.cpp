@@ -1,6 +1,7 @@
-// PLY and STL through OpenMesh's readers (OFF has its own, mesh_headers.h), into plain arrays: an importer of our own keeps
-// every vertex in file order and every face as written (OpenMesh's own meshes would drop or
-// split faces at non-manifold edges), and the faces become triangles by the OBJ reader's rule.
+// STL through OpenMesh's reader (OFF and PLY have readers of our own, mesh_readers.h), into plain
+// arrays: an importer of our own keeps every vertex in file order and every face as written
+// (OpenMesh's own meshes would drop or split faces at non-manifold edges), and the faces become
+// triangles by the OBJ reader's rule.
 #include <OpenMesh/Core/IO/MeshIO.hh>
 #include <OpenMesh/Core/IO/importer/BaseImporter.hh>
 #include <OpenMesh/Core/System/omstream.hh>
@@ -17,7 +18,7 @@
 #include "hdeform/errors.h"
 #include "hdeform/mesh_io.h"
 #include "hdeform/trace.h"
-#include "mesh_headers.h"
+#include "mesh_readers.h"
 #include "polygons.h"
 #include "text_scan.h"
 
@@ -106,16 +107,6 @@ class ArrayImporter final : public om::IO::BaseImporter {
   void add_texture_information(int, std::string) override {}
 };
 
-std::string_view format_name(MeshFormat format) {
-  switch (format) {
-    case MeshFormat::Obj: return "OBJ";
-    case MeshFormat::Ply: return "PLY";
-    case MeshFormat::Off: return "OFF";
-    case MeshFormat::Stl: return "STL";
-  }
-  return "?";
-}
-
 // Binary STL: an 80-byte header, a 32-bit triangle count, 50 bytes per triangle. Anything else
 // is read as ASCII ("solid ... endsolid").
 bool is_binary_stl(std::string_view content) {
@@ -156,23 +147,20 @@ std::string openmesh_message(const std::string& stream) {
   return line;
 }
 
-Mesh parse_with_openmesh(const std::filesystem::path& path, std::string_view content, MeshFormat format) {
+Mesh parse_stl(const std::filesystem::path& path, std::string_view content) {
   const std::string name = path.string();
-  const std::string what(format_name(format));
   om::IO::Options options;
-  if (format == MeshFormat::Stl && is_binary_stl(content)) options += om::IO::Options::Binary;
-  if (format == MeshFormat::Stl && !is_binary_stl(content)) {
+  if (is_binary_stl(content)) {
+    options += om::IO::Options::Binary;
+  } else {
     const auto first = content.find_first_not_of(" \t\r\n");
     if (first == std::string_view::npos || content.substr(first, 5) != "solid") {
       throw InputError(name + ": neither ASCII STL (it does not start with \"solid\") nor binary STL (an 84-byte header "
                        "and 50 bytes per triangle)");
     }
   }
-  if (content.empty()) throw InputError(name + ": an empty file");
-  if (format == MeshFormat::Ply) detail::check_ply_header(path, content);
   ArrayImporter importer;
   bool read = false;
-  bool ended_early = false;
   std::string stream;
   {
     const std::lock_guard lock(openmesh_stream_mutex);
@@ -181,35 +169,20 @@ Mesh parse_with_openmesh(const std::filesystem::path& path, std::string_view con
     caught.clear();
     std::istringstream in{std::string(content), std::ios::binary};
     try {
-      const std::string extension = format == MeshFormat::Ply ? ".ply" : ".stl";
-      read = om::IO::IOManager().read(in, extension, importer, options);
-      // A PLY body that ends early leaves the missing values at zero but fails the stream (the
-      // STL reader always reads to a failure).
-      ended_early = format == MeshFormat::Ply && in.fail() && !in.bad();
+      read = om::IO::IOManager().read(in, ".stl", importer, options);
     } catch (const std::exception& error) {
       caught << error.what() << '\n';
     }
     ::omerr().flush();
     stream = caught.str();
   }
-  if (ended_early && importer.problem.empty()) {
-    throw InputError(name + ": the file ends before the " + std::to_string(importer.points.size()) + " vertices and " +
-                     std::to_string(importer.polygons.count()) + " faces read so far are complete");
-  }
   if (!importer.problem.empty()) throw InputError(name + ": " + importer.problem);
   if (!read) {
     const auto message = openmesh_message(stream);
-    throw InputError(name + ": not a readable " + what + " file" + (message.empty() ? "" : " (" + message + ")"));
+    throw InputError(name + ": not a readable STL file" + (message.empty() ? "" : " (" + message + ")"));
   }
-  if (importer.polygons.count() == 0) throw InputError(name + ": the " + what + " file has no faces");
-  Mesh mesh;
-  mesh.positions.resize(static_cast<Eigen::Index>(importer.points.size()), 3);
-  for (std::size_t v = 0; v < importer.points.size(); ++v) {
-    for (int c = 0; c < 3; ++c) mesh.positions(static_cast<Eigen::Index>(v), c) = importer.points[v][static_cast<std::size_t>(c)];
-  }
-  detail::triangulate(importer.polygons, mesh.positions, mesh.triangles);
-  validate_mesh(mesh, name);
-  return mesh;
+  if (importer.polygons.count() == 0) throw InputError(name + ": the STL file has no faces");
+  return detail::mesh_of(importer.points, importer.polygons, name);
 }
 
 void append_bytes(std::string& out, const void* data, std::size_t size) { out.append(static_cast<const char*>(data), size); }
@@ -233,11 +206,10 @@ Mesh parse_mesh(const std::filesystem::path& path, std::string_view content) {
                      std::string(kReadableMeshFormats) + ")");
   }
   if (*format == MeshFormat::Obj) return parse_obj(path, content);
-  if (*format == MeshFormat::Off) {
-    if (content.empty()) throw InputError(path.string() + ": an empty file");
-    return detail::parse_off(path, content);
-  }
-  return parse_with_openmesh(path, content, *format);
+  if (content.empty()) throw InputError(path.string() + ": an empty file");
+  if (*format == MeshFormat::Off) return detail::parse_off(path, content);
+  if (*format == MeshFormat::Ply) return detail::parse_ply(path, content);
+  return parse_stl(path, content);
 }
 
 Mesh read_mesh(const std::filesystem::path& path) {

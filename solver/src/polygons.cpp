@@ -38,4 +38,15 @@ void triangulate(const Polygons& polygons, const Eigen::MatrixXd& positions, Eig
   }
 }
 
+Mesh mesh_of(const std::vector<std::array<double, 3>>& points, const Polygons& polygons, std::string_view name) {
+  Mesh mesh;
+  mesh.positions.resize(static_cast<Eigen::Index>(points.size()), 3);
+  for (std::size_t v = 0; v < points.size(); ++v) {
+    for (int c = 0; c < 3; ++c) mesh.positions(static_cast<Eigen::Index>(v), c) = points[v][static_cast<std::size_t>(c)];
+  }
+  triangulate(polygons, mesh.positions, mesh.triangles);
+  validate_mesh(mesh, name);
+  return mesh;
+}
+
 }  // namespace hdeform::detail

@@ -1,8 +1,12 @@
 #pragma once
 // Faces as a file writes them, and their triangles: one rule for every mesh reader.
 #include <Eigen/Core>
+#include <array>
 #include <cstddef>
+#include <string_view>
 #include <vector>
+
+#include "hdeform/mesh.h"
 
 namespace hdeform::detail {
 
@@ -20,5 +24,9 @@ struct Polygons {
 // Quads are split along their shorter diagonal (a tie takes 1-3), larger polygons into a fan
 // from their first corner. Every polygon has three corners or more.
 void triangulate(const Polygons& polygons, const Eigen::MatrixXd& positions, Eigen::MatrixXi& triangles);
+
+// The mesh a reader has read: the points in file order, the polygons triangulated, then checked
+// (validate_mesh, under `name`).
+Mesh mesh_of(const std::vector<std::array<double, 3>>& points, const Polygons& polygons, std::string_view name);
 
 }  // namespace hdeform::detail

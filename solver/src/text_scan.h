@@ -119,6 +119,13 @@ inline std::optional<long long> parse_integer(std::string_view token) {
   return value;
 }
 
+// A count: a non-negative integer below 2^31 (an int indexes what it counts).
+inline std::optional<std::size_t> parse_count(std::string_view token) {
+  const auto value = parse_integer(token);
+  if (!value || *value < 0 || *value > 0x7fffffff) return std::nullopt;
+  return static_cast<std::size_t>(*value);
+}
+
 std::string quoted(std::string_view token);
 
 }  // namespace hdeform::detail

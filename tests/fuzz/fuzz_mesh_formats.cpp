@@ -1,5 +1,5 @@
-// The PLY, OFF and STL readers (header checks, then OpenMesh into our arrays), then what every
-// command does with a mesh it has read. The first byte picks the format, the rest is the file.
+// The PLY, OFF and STL readers (our own for PLY and OFF, OpenMesh's into our arrays for STL),
+// then what every command does with a mesh it has read. The first byte picks the format, the rest is the file.
 #include "fuzz_input.h"
 #include "hdeform/laplacian.h"
 #include "hdeform/mesh_check.h"

@@ -26,17 +26,18 @@ void write_obj(const std::filesystem::path& path, const Mesh& mesh);
 
 // The formats scans come in, chosen by the file's extension (any case).
 //   .obj  the reader above;
-//   .ply  ASCII or binary (either byte order), "vertex" x y z (float or double) and "face"
-//         vertex_indices lists (one- or two-byte lengths); other elements and properties are ignored;
+//   .ply  ASCII or binary (either byte order), "vertex" x y z and "face" vertex_indices lists
+//         (any integer length type); other elements and properties, lists too, are read past;
 //   .off  (also COFF, NOFF... headers) one vertex per line (x y z, then ignored colours or
 //         normals), one face per line (its size, that many indices, an ignored colour);
 //   .stl  ASCII or binary. STL stores each triangle's corners, not shared vertices: corners at
 //         exactly the same position become one vertex, numbered in the order they first occur
 //         (triangle 0's three corners first), so index files refer to that order.
-// PLY and STL are read by OpenMesh into our own arrays, in single precision (OpenMesh's points
-// are floats); OFF by our own reader (OpenMesh's trusts a face's size and ran out of memory on a
-// 100-byte file), in double. Either way vertices stay exactly in file order, every face is kept
-// as written (non-manifold ones too) and polygons are triangulated as in OBJ.
+// STL is read by OpenMesh into our own arrays, in single precision (as STL stores it); PLY and
+// OFF by readers of our own (OpenMesh's trusted a list's or a face's size and ran out of memory
+// on files of a few hundred bytes): OFF in double, PLY in each property's declared precision.
+// Either way vertices stay exactly in file order, every face is kept as written (non-manifold
+// ones too) and polygons are triangulated as in OBJ.
 // Throws InputError "<file>[:<line>]: <problem>" (a face index out of range names the face and corner).
 enum class MeshFormat { Obj, Ply, Off, Stl };
 inline constexpr std::string_view kReadableMeshFormats = ".obj, .ply, .off or .stl";
