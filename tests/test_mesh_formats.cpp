@@ -401,6 +401,17 @@ TEST(MeshFormats, PlyListsLongerThanTheFileAreRefusedBeforeAnythingIsReserved) {
                                            "list of length 4294967295, more than the rest of the file holds");
   binary.replace(body + 36, 4, std::string("\3\0\0\0", 4));  // a length that fits, and then no byte for 'red'
   expect_refused(dir, "short.ply", binary, ": byte " + std::to_string(body + 52) + ": the file ends before element 'face' item 0 property 'red' (the header declares 1)");
+  // A signed length type: the byte 0xff is -1, not 255.
+  std::string signed_length = "ply\nformat binary_big_endian 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
+                              "element face 1\nproperty list char short vertex_indices\nend_header\n";
+  for (int k = 0; k < 9; ++k) put_big_endian(signed_length, static_cast<float>(k));
+  signed_length += '\xff';
+  for (int k = 0; k < 3; ++k) put_big_endian(signed_length, static_cast<std::int16_t>(k));
+  expect_refused(dir, "signed.ply", signed_length, "has a list of length -1 (its length type 'char' holds 0 to 127)");
+  // And a signed index below zero is out of range, not a large unsigned one.
+  signed_length.replace(signed_length.size() - 7, 1, "\3");
+  signed_length.replace(signed_length.size() - 2, 2, "\xff\xfe");
+  expect_refused(dir, "signed-index.ply", signed_length, "face 0 corner 2 has vertex index -2, out of range (3 vertices)");
 }
 
 TEST(MeshFormats, TheBenchmarkMeshesReadAlikeInEveryFormat) {
