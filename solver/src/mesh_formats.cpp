@@ -134,7 +134,7 @@ std::ostringstream& openmesh_errors() {
   return *caught;
 }
 
-// The last line OpenMesh wrote, without its "[PLYReader] : " style prefix.
+// The last line OpenMesh wrote, without its "[STLReader] : " style prefix.
 std::string openmesh_message(const std::string& stream) {
   std::string line;
   std::istringstream lines(stream);
