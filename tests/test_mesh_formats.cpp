@@ -367,7 +367,7 @@ TEST(MeshFormats, PlyElementsInAnyOrderAndCoordinatesInTheirDeclaredPrecision) {
 }
 
 // Every list length is checked against its type and against what the rest of the file could
-// hold before anything is reserved (OpenMesh took a 4e9 length from a 300-byte file and
+// hold before anything is reserved (OpenMesh took a face's size from whatever token it met and
 // allocated until the fuzzer stopped it at 2 GB).
 TEST(MeshFormats, PlyListsLongerThanTheFileAreRefusedBeforeAnythingIsReserved) {
   const test::TempDir dir;
@@ -386,6 +386,13 @@ TEST(MeshFormats, PlyListsLongerThanTheFileAreRefusedBeforeAnythingIsReserved) {
   expect_refused(dir, "word.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n"
                                   "element face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 zero 0\n0 1 0\n3 0 1 2\n",
                  ":11: 'zero' is not a number (element 'vertex' item 1 property 'y')");
+  // Lines end at LF, CRLF or a lone CR in the body as in every text reader.
+  for (const std::string end : {"\r\n", "\r"}) {
+    std::string body = "0 0 0\n1 zero 0\n0 1 0\n3 0 1 2\n";
+    for (std::size_t at = body.find('\n'); at != std::string::npos; at = body.find('\n', at + end.size())) body.replace(at, 1, end);
+    expect_refused(dir, "word-" + std::to_string(end.size()) + ".ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\n"
+                   "property float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n" + body, ":11: 'zero' is not a number");
+  }
   expect_refused(dir, "twice.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nelement vertex 3\n", ":5: a second element 'vertex' (the first is on line 3)");
   expect_refused(dir, "list-x.ply", "ply\nformat ascii 1.0\nelement vertex 3\nproperty list uchar float x\nproperty float y\nproperty float z\n"
                                     "element face 1\nproperty list uchar int vertex_indices\nend_header\n",

@@ -1,7 +1,7 @@
 #pragma once
 // The mesh readers of our own, for the formats whose OpenMesh readers cannot be trusted with
 // hostile files: each trusted a size its file gave and read that many values whatever the file
-// held (a 100-byte OFF file and a 300-byte PLY file made it allocate 2 GB). Here every size is
+// held (a 100-byte OFF file and a 231-byte PLY file made it allocate 2 GB). Here every size is
 // checked against the bytes that are left before anything is reserved. Each throws InputError
 // "<file>:<line>: <problem>" (a binary body names the byte instead).
 #include <filesystem>
