@@ -137,13 +137,14 @@ TEST(HarmonicCoordinates, TrianglesAreTheMeanOfTheirCornersBitForBitAlsoWhereNoM
   EXPECT_EQ(Eigen::MatrixXd(rows), expected);
   EXPECT_EQ(rows.row(mesh.triangle_count() - 1), Eigen::RowVectorXd::Constant(7, 1.0 / 7.0));
   EXPECT_GT(rows.topRows(cactus.triangle_count()).col(3).maxCoeff(), 0.5);
-  // Matched from the vertices' coordinates (each query's row formed as it runs), the triangles
+  // Matched from the vertices' coordinates (each row formed where it is needed), the triangles
   // find what the same rows written out find, to the bit.
   const VertexCoordinates vertices(system, partition, markers);
   const CoordinateRows source = rows.topRows(400);
+  const Eigen::MatrixXi source_triangles = mesh.triangles.topRows(400);
   for (const int top_n : {0, 3}) {
     const TriangleMatch written = match_triangles(rows, source, top_n);
-    const TriangleMatch formed = match_triangles(vertices, mesh.triangles, source, top_n);
+    const TriangleMatch formed = match_triangles(vertices, mesh.triangles, vertices, source_triangles, top_n);
     EXPECT_EQ(formed.source, written.source) << "top-n " << top_n;
     EXPECT_EQ(formed.distance, written.distance) << "top-n " << top_n;
   }
@@ -241,6 +242,46 @@ TEST(TriangleMatch, EqualsABruteForceSearchOverAllOrTheLargestComponents) {
   EXPECT_EQ(repeated.distance[0], 0.0);
   EXPECT_THROW(match_triangles(target, source, 2), std::invalid_argument);
   EXPECT_THROW(match_triangles(target, source, k + 1), std::invalid_argument);
+}
+
+// The search screens rows in single precision and decides in double: rows that single precision
+// cannot tell apart (a cloud of near-copies 1e-11 apart, far below a float's resolution), at
+// scales where floats underflow (1e-30: the differences are subnormal or zero as floats) or
+// overflow (1e150), still match as the double scan matches them. 37 components: not a multiple
+// of the lanes.
+TEST(TriangleMatch, ExactWhereSinglePrecisionCannotTellRowsApart) {
+  std::mt19937 random(5);
+  std::gamma_distribution<double> gamma(0.3, 1.0);
+  std::normal_distribution<double> jitter(0.0, 1e-11);
+  const int k = 37;
+  Eigen::MatrixXd centres(25, k);
+  for (Eigen::Index r = 0; r < centres.rows(); ++r) {
+    for (int c = 0; c < k; ++c) centres(r, c) = gamma(random);
+    centres.row(r) /= centres.row(r).sum();
+  }
+  auto near_copies = [&](int per_centre) {
+    Eigen::MatrixXd rows(centres.rows() * per_centre, k);
+    for (Eigen::Index r = 0; r < rows.rows(); ++r) {
+      for (int c = 0; c < k; ++c) rows(r, c) = centres(r / per_centre, c) + jitter(random);
+    }
+    return rows;
+  };
+  const Eigen::MatrixXd source = near_copies(12), target = near_copies(4);
+  for (const double scale : {1.0, 1e-30, 1e150}) {
+    const Eigen::MatrixXd scaled_source = scale * source, scaled_target = scale * target;
+    for (const int top_n : {0, 5}) {
+      const TriangleMatch match = match_triangles(scaled_target, scaled_source, top_n);
+      int distinct_from_the_centre_row = 0;
+      for (Eigen::Index t = 0; t < target.rows(); ++t) {
+        const auto [nearest, distance] = scan_nearest(scaled_target, t, scaled_source, top_n);
+        EXPECT_EQ(match.source[static_cast<std::size_t>(t)], nearest) << "scale " << scale << ", top-n " << top_n << ", target " << t;
+        EXPECT_NEAR(match.distance[static_cast<std::size_t>(t)], distance, 1e-14 * distance) << "scale " << scale << ", target " << t;
+        if (nearest % 12 != 0) ++distinct_from_the_centre_row;
+      }
+      // The answers are spread over the near-copies, not all the first of each cloud.
+      EXPECT_GT(distinct_from_the_centre_row, target.rows() / 2) << "scale " << scale;
+    }
+  }
 }
 
 class SameMesh : public ::testing::Test {

@@ -16,15 +16,15 @@ struct TriangleMatch {
   std::vector<double> distance;   // ... and the distance between their coordinates
 };
 
-// `target` is m_t × k, `source` m_s × k (one coordinate per row; taken by value: the search
-// reorders its rows in place, so move it in when it is not needed after). top_n = 0 compares all
-// k components; otherwise 3 ≤ top_n ≤ k (throws std::invalid_argument outside). Exact nearest
+// `target` is m_t × k, `source` m_s × k (one coordinate per row). top_n = 0 compares all k
+// components; otherwise 3 ≤ top_n ≤ k (throws std::invalid_argument outside). Exact nearest
 // neighbours, ties to the lower source row, found in one tree of boxes over the source
 // coordinates that serves all k components and every set of n alike; queries run in parallel.
-TriangleMatch match_triangles(const CoordinateRows& target, CoordinateRows source, int top_n = 0);
-// The same with the target's coordinates per vertex: each target triangle's row, the mean of its
-// corners' (as triangle_coordinates gives it), is formed as its query runs, so the m_t × k
-// matrix is never written.
-TriangleMatch match_triangles(const VertexCoordinates& target, const Eigen::MatrixXi& target_triangles, CoordinateRows source, int top_n = 0);
+TriangleMatch match_triangles(const CoordinateRows& target, const CoordinateRows& source, int top_n = 0);
+// The same with the coordinates per vertex: a triangle's row, the mean of its corners' (as
+// triangle_coordinates gives it), is formed where it is needed, so that neither m × k matrix is
+// written.
+TriangleMatch match_triangles(const VertexCoordinates& target, const Eigen::MatrixXi& target_triangles, const VertexCoordinates& source,
+                              const Eigen::MatrixXi& source_triangles, int top_n = 0);
 
 }  // namespace hdeform
