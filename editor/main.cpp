@@ -12,17 +12,19 @@
 #endif
 
 #ifdef HDEFORM_WITH_JEMALLOC
-// Memory the process has not touched yet costs a page fault per 4 KiB page when first written:
-// 13.7 µs each on the 2-core virtual machines this project is measured on, so the 30 MB factor of
-// a 206K-triangle mesh costs about 100 ms before any arithmetic. glibc hands large freed blocks
-// straight back to the kernel, and every re-selection in the editor or the bench faulted its
-// factor in again. jemalloc keeps what was freed for the next allocation and asks for
-// transparent huge pages, one fault per 2 MiB. Freed pages unused for 30 s go back to the kernel:
-// keeping them for good raised the peak of `bench --subdivide 1` (two 822K-triangle deformers
-// during re-selection) from 1.27 to 1.69 GB.
+// Memory the process has not touched yet costs a fault when first written: on the 2-core virtual
+// machines this project is measured on, 0.55-0.7 ms per MB for 4 KiB pages and 1.5-2.9 ms per MB
+// for transparent huge pages (300 MB, four fresh processes each, 2026-12-02). glibc hands large
+// freed blocks straight back to the kernel, so every re-selection in the editor or the bench
+// faulted its factor in again; jemalloc keeps what was freed for the next allocation. Huge pages
+// are left to the system's setting: asking for them (thp:always, until then) made opening the
+// Buddha 515-618 ms against 268-334 ms without, for 10-20 ms more in a factorization that reuses
+// memory. Freed pages unused for 30 s go back to the kernel: keeping them for good raised the
+// peak of `bench --subdivide 1` (two 822K-triangle deformers during re-selection) from 1.27 to
+// 1.69 GB.
 extern "C" {
 // NOLINTNEXTLINE: jemalloc reads this global by name at start-up.
-const char* malloc_conf = "thp:always,metadata_thp:auto,dirty_decay_ms:30000,muzzy_decay_ms:0";
+const char* malloc_conf = "metadata_thp:auto,dirty_decay_ms:30000,muzzy_decay_ms:0";
 }
 #endif
 
