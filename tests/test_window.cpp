@@ -3,6 +3,10 @@
 #define GLFW_INCLUDE_VULKAN
 #include <GLFW/glfw3.h>
 
+#include <chrono>
+#include <thread>
+#include <vector>
+
 #include "hdeform/engine/frame_slots.h"
 #include "hdeform/engine/mesh_renderer.h"
 #include "hdeform/engine/offscreen.h"
@@ -23,8 +27,11 @@ class Window : public ::testing::Test {
     glfwWindowHint(GLFW_CLIENT_API, GLFW_NO_API);
     window = glfwCreateWindow(320, 240, "hdeform test", nullptr, nullptr);
     ASSERT_NE(window, nullptr);
+    context = make_context(true);
+  }
+  std::unique_ptr<engine::VulkanContext> make_context(bool validation) {
     engine::ContextOptions options;
-    options.validation = true;
+    options.validation = validation;
     options.announce = false;
     uint32_t count = 0;
     const char** extensions = glfwGetRequiredInstanceExtensions(&count);
@@ -34,7 +41,7 @@ class Window : public ::testing::Test {
       engine::check(glfwCreateWindowSurface(instance, window, nullptr, &surface), "glfwCreateWindowSurface");
       return surface;
     };
-    context = std::make_unique<engine::VulkanContext>(options);
+    return std::make_unique<engine::VulkanContext>(options);
   }
   void TearDown() override {
     if (context) {
@@ -54,20 +61,22 @@ class Window : public ::testing::Test {
   std::unique_ptr<engine::VulkanContext> context;
 };
 
-TEST_F(Window, ShowsWhatTheOffscreenTargetShowsAndSurvivesResizeAndMinimise) {
-  auto shape = make_shape(ShapeKind::Cactus, 32);
-  engine::SwapchainTarget target(*context, [this] { return framebuffer_size(); }, 4, false);
-  engine::FrameSlots slots(*context);
-  engine::MeshRenderer renderer(*context, target.render_pass(), target.format(), slots.count());
-  engine::GeometryExchange exchange(static_cast<std::size_t>(shape.mesh.vertex_count()));
-  engine::GeometryPublisher(exchange, shape.mesh.triangles).publish(shape.mesh.positions);
-  const auto bounds = engine::Bounds::of(shape.mesh.positions);
-  renderer.set_mesh(shape.mesh.triangles, exchange, bounds, engine::UpAxis::Z);
-  engine::RenderSettings settings;
+// The cactus drawn into the window: a swapchain, frame slots and a renderer.
+struct WindowDrawing {
+  WindowDrawing(const engine::VulkanContext& context, std::function<VkExtent2D()> size, bool present_on_thread)
+      : shape(make_shape(ShapeKind::Cactus, 32)),
+        target(context, std::move(size), 4, false, present_on_thread),
+        slots(context),
+        renderer(context, target.render_pass(), target.format(), slots.count()),
+        exchange(static_cast<std::size_t>(shape.mesh.vertex_count())),
+        bounds(engine::Bounds::of(shape.mesh.positions)) {
+    engine::GeometryPublisher(exchange, shape.mesh.triangles).publish(shape.mesh.positions);
+    renderer.set_mesh(shape.mesh.triangles, exchange, bounds, engine::UpAxis::Z);
+  }
 
   // Draws `frames` frames; the last one is kept for reading back. Returns false if no frame
   // could be drawn (minimised).
-  auto draw = [&](int frames) {
+  bool draw(int frames) {
     bool drew = false;
     for (int k = 0; k < frames; ++k) {
       glfwPollEvents();
@@ -86,20 +95,39 @@ TEST_F(Window, ShowsWhatTheOffscreenTargetShowsAndSurvivesResizeAndMinimise) {
     }
     slots.wait_all();
     return drew;
-  };
+  }
+
+  // The last frame read back from the window equals the same scene drawn offscreen.
+  void expect_the_offscreen_picture(const engine::VulkanContext& context) {
+    const engine::Pixels window_image = target.read_last_image();
+    ASSERT_EQ(window_image.width, target.extent().width);
+    engine::Shot shot;
+    shot.width = target.extent().width;
+    shot.height = target.extent().height;
+    engine::Scene scene;
+    scene.positions = shape.mesh.positions;
+    scene.triangles = shape.mesh.triangles;
+    const engine::Pixels offscreen = engine::render_offscreen(context, scene, shot);
+    const auto difference = test::compare_images(window_image, offscreen, 24);
+    EXPECT_LE(difference.differing_fraction, 0.005) << "largest difference " << difference.largest;
+  }
+
+  Shape shape;
+  engine::SwapchainTarget target;
+  engine::FrameSlots slots;
+  engine::MeshRenderer renderer;
+  engine::GeometryExchange exchange;
+  engine::Bounds bounds;
+  engine::RenderSettings settings;
+};
+
+TEST_F(Window, ShowsWhatTheOffscreenTargetShowsAndSurvivesResizeAndMinimise) {
+  WindowDrawing drawing(*context, [this] { return framebuffer_size(); }, false);
+  auto draw = [&](int frames) { return drawing.draw(frames); };
+  auto& target = drawing.target;
 
   ASSERT_TRUE(draw(6));
-  const engine::Pixels window_image = target.read_last_image();
-  ASSERT_EQ(window_image.width, target.extent().width);
-  engine::Shot shot;
-  shot.width = target.extent().width;
-  shot.height = target.extent().height;
-  engine::Scene scene;
-  scene.positions = shape.mesh.positions;
-  scene.triangles = shape.mesh.triangles;
-  const engine::Pixels offscreen = engine::render_offscreen(*context, scene, shot);
-  const auto difference = test::compare_images(window_image, offscreen, 24);
-  EXPECT_LE(difference.differing_fraction, 0.005) << "largest difference " << difference.largest;
+  drawing.expect_the_offscreen_picture(*context);
 
   glfwSetWindowSize(window, 400, 300);
   for (int k = 0; k < 20 && framebuffer_size().width != 400; ++k) glfwWaitEventsTimeout(0.05);
@@ -113,6 +141,32 @@ TEST_F(Window, ShowsWhatTheOffscreenTargetShowsAndSurvivesResizeAndMinimise) {
   glfwRestoreWindow(window);
   for (int k = 0; k < 10; ++k) glfwWaitEventsTimeout(0.02);
   EXPECT_TRUE(draw(3));
+}
+
+// As the editor runs without validation: a thread of its own presents, another waits for each
+// frame to finish and notes when (the editor's input-to-screen figures). Under the sanitizers
+// these threads run here, since the editor's tests run it under validation, where it keeps to one
+// thread (see EditorApp::single_threaded_vulkan).
+TEST_F(Window, PresentsOnAThreadOfItsOwnAndTimesEveryFrame) {
+  context = make_context(false);
+  if (!context->has_timeline_semaphores()) GTEST_SKIP() << "this device has no timeline semaphores";
+  WindowDrawing drawing(*context, [this] { return framebuffer_size(); }, true);
+  drawing.slots.enable_completion_times();
+  const auto before = std::chrono::steady_clock::now();
+  constexpr int kFrames = 8;
+  ASSERT_TRUE(drawing.draw(kFrames));
+  drawing.expect_the_offscreen_picture(*context);
+  std::vector<engine::FrameSlots::Completion> completions;
+  for (int k = 0; k < 200 && completions.size() < kFrames; ++k) {
+    auto taken = drawing.slots.take_completions();
+    completions.insert(completions.end(), taken.begin(), taken.end());
+    if (completions.size() < kFrames) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  ASSERT_EQ(completions.size(), static_cast<std::size_t>(kFrames));
+  for (std::size_t k = 0; k < completions.size(); ++k) {
+    EXPECT_EQ(completions[k].frame, k + 1);
+    EXPECT_GE(completions[k].time, k == 0 ? before : completions[k - 1].time);
+  }
 }
 
 }  // namespace

@@ -151,6 +151,8 @@ class EditorApp {
   // on a GPU that buys throughput, on a CPU device (where "the GPU" is these same cores) it only
   // adds latency (measured on lavapipe with buddha-206k). HDEFORM_FRAMES_IN_FLIGHT overrides.
   uint32_t frames_in_flight() const;
+  // Under validation only the rendering thread calls Vulkan (presenting, timing frames).
+  bool single_threaded_vulkan() const;
   void set_mode(Mode mode);
   void shutdown();
 
