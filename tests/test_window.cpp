@@ -148,6 +148,7 @@ TEST_F(Window, ShowsWhatTheOffscreenTargetShowsAndSurvivesResizeAndMinimise) {
 // these threads run here, since the editor's tests run it under validation, where it keeps to one
 // thread (see EditorApp::single_threaded_vulkan).
 TEST_F(Window, PresentsOnAThreadOfItsOwnAndTimesEveryFrame) {
+  context.reset();  // the window's surface goes with it before the next one is made
   context = make_context(false);
   if (!context->has_timeline_semaphores()) GTEST_SKIP() << "this device has no timeline semaphores";
   WindowDrawing drawing(*context, [this] { return framebuffer_size(); }, true);

@@ -196,13 +196,14 @@ void EditorApp::create_renderer() {
   ImGui_ImplVulkan_DestroyFontUploadObjects();
 }
 
-// The validation layers packaged in Debian 12 (1.3.239) track semaphores and queues with races of
-// their own when the application calls Vulkan from several threads: the editor, started under
-// validation some hundred times by CI's ThreadSanitizer suite, once threw std::future_error ("No
-// associated state") out of the layer before its first picture. So under validation (the tests,
-// --validation) only the rendering thread calls Vulkan: it presents itself, and no thread waits for
-// frames to finish (no input-to-screen figures). Without validation, as the user runs it, a thread
-// presents and another times the frames; test_window runs those threads without validation.
+// The validation layers packaged in Debian 12 (1.3.239) track semaphores and queues with known
+// races when the application calls Vulkan from several threads (our reading; not reproduced here):
+// the editor, started under validation some hundred times by CI's ThreadSanitizer suite, once threw
+// std::future_error ("No associated state") out of a Vulkan call (our code uses no futures) before
+// its first picture. So under validation (the tests, --validation) only the rendering thread calls
+// Vulkan: it presents itself, and no thread waits for frames to finish (no frame times or
+// input-to-screen figures). Without validation, as the user runs it, a thread presents and another
+// times the frames; test_window runs those threads without validation.
 bool EditorApp::single_threaded_vulkan() const { return context_->validation_enabled(); }
 
 uint32_t EditorApp::frames_in_flight() const {
