@@ -18,5 +18,5 @@ configure_package_config_file(cmake/hdeformConfig.cmake.in ${CMAKE_CURRENT_BINAR
                               INSTALL_DESTINATION ${hdeform_package_dir})
 write_basic_package_version_file(${CMAKE_CURRENT_BINARY_DIR}/hdeformConfigVersion.cmake COMPATIBILITY SameMinorVersion)
 install(FILES ${CMAKE_CURRENT_BINARY_DIR}/hdeformConfig.cmake ${CMAKE_CURRENT_BINARY_DIR}/hdeformConfigVersion.cmake
-              cmake/FindCHOLMOD.cmake
+              cmake/FindCHOLMOD.cmake cmake/FindMETIS.cmake
         DESTINATION ${hdeform_package_dir})

@@ -145,6 +145,7 @@ class BenchCommand final : public BatchCommand {
                              {"threads", solver.effective_threads()},
                              {"allocator", allocator_name()},
                              {"steps", steps_},
+                             {"elimination_order", to_string(elimination_order_for(mesh.vertex_count()))},
                              {"read_ms", read_ms}};
     if (subdivide_ > 0) {
       report["subdivide"] = {{"levels", subdivide_}, {"ms", subdivide_ms}, {"file_vertices", file_vertices}, {"file_triangles", file_triangles},

@@ -95,7 +95,6 @@ std::shared_ptr<const MeshOperators> MeshOperators::of(const Mesh& mesh) {
         operators->inspection = inspect_mesh(mesh, operators->weights);
       },
       [&] {
-        const trace::Scope traced("elimination order (AMD)", "set-up");
         operators->elimination_rank = elimination_ranks(operators->laplacian);
       });
   operators->ms = milliseconds_since(start);
@@ -127,7 +126,9 @@ Deformer::Deformer(Mesh rest, EditConstraints constraints, std::shared_ptr<const
 
   auto start = Clock::now();
   if (!operators_) {
-    report("building the cotangent Laplacian");
+    report(elimination_order_for(rest_.vertex_count()) == EliminationOrder::NestedDissection
+               ? "building the cotangent Laplacian and a nested-dissection order of its unknowns"
+               : "building the cotangent Laplacian");
     operators_ = MeshOperators::of(rest_);
   } else if (operators_->laplacian.rows() != rest_.vertex_count() ||
              operators_->weights.kind.size() != static_cast<std::size_t>(rest_.triangle_count())) {

@@ -277,7 +277,6 @@ void factor_with_tree(const Eigen::SparseMatrix<double>& matrix, std::span<const
   } else {
     auto fresh = std::make_shared<SparseCholesky::Analysis>();
     if (ordering.empty()) {
-      const trace::Scope traced("elimination order (AMD)", "set-up");
       fresh->factor_row = elimination_ranks(matrix);
     }
     const trace::Scope traced("analysis (elimination tree, pattern of L)", "set-up");
@@ -305,15 +304,6 @@ void factor_with_tree(const Eigen::SparseMatrix<double>& matrix, std::span<const
 }
 
 }  // namespace
-
-std::vector<int> elimination_ranks(const Eigen::SparseMatrix<double>& matrix) {
-  Eigen::AMDOrdering<int> ordering;
-  Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> elimination_order;
-  ordering(matrix, elimination_order);  // step k eliminates unknown elimination_order[k]
-  std::vector<int> rank(static_cast<std::size_t>(matrix.rows()));
-  for (Eigen::Index k = 0; k < matrix.rows(); ++k) rank[static_cast<std::size_t>(elimination_order.indices()[k])] = static_cast<int>(k);
-  return rank;
-}
 
 SparseCholesky::SparseCholesky() : factor_(std::make_unique<Factor>()) {}
 SparseCholesky::~SparseCholesky() = default;

@@ -67,7 +67,8 @@ struct MeshOperators {
   CotangentWeights weights;
   MeshInspection inspection;
   Eigen::SparseMatrix<double> laplacian;
-  // elimination_rank[v]: vertex v's place in an AMD order of the whole Laplacian. Eliminating the
+  // elimination_rank[v]: vertex v's place in an elimination order of the whole Laplacian
+  // (elimination_ranks: AMD, or nested dissection on a large mesh). Eliminating the
   // free vertices in the order it induces fills in no more than that order fills the whole
   // matrix (a fill path among free vertices is one in the whole mesh), so every selection's
   // L_ff is factored without an ordering of its own.

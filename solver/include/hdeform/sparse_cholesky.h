@@ -21,7 +21,7 @@
 namespace hdeform {
 
 enum class SolverBackend {
-  Tree,     // ours: AMD (or a given) ordering, rows of L computed in parallel over elimination subtrees
+  Tree,     // ours: elimination_ranks (or a given) ordering, rows of L computed in parallel over elimination subtrees
   Eigen,    // Eigen SimplicialLLT with AMD ordering
   Cholmod,  // CHOLMOD supernodal LLT through Eigen's CholmodSupport
 };
@@ -33,9 +33,24 @@ bool backend_available(SolverBackend backend);
 // The backend measured faster on buddha-206k (see README, Performance).
 SolverBackend default_backend();
 
-// An approximate-minimum-degree elimination order of a symmetric matrix's pattern (both
-// triangles stored): rank[i] is the step that eliminates unknown i.
-std::vector<int> elimination_ranks(const Eigen::SparseMatrix<double>& matrix);
+// How a fill-reducing elimination order is found.
+enum class EliminationOrder {
+  Automatic,         // MinimumDegree below kNestedDissectionFrom unknowns, NestedDissection from there
+  MinimumDegree,     // approximate minimum degree (AMD)
+  NestedDissection,  // METIS nested dissection
+};
+// Nested dissection costs several times AMD's time (buddha-206k: 33 against 355 ms) and pays it
+// back only on large meshes: at 103K vertices it removes 10% of L's nonzeros and no drag time;
+// at 411K (the Buddha subdivided once) 23% of them, 30% of the factorization and 25% of each
+// drag's solve (README, Performance).
+inline constexpr Eigen::Index kNestedDissectionFrom = 250'000;
+std::string_view to_string(EliminationOrder order);
+// What Automatic means for a matrix of `unknowns` rows.
+EliminationOrder elimination_order_for(Eigen::Index unknowns);
+
+// An elimination order of a symmetric matrix's pattern (both triangles stored): rank[i] is the
+// step that eliminates unknown i. Deterministic: the same pattern always gives the same ranks.
+std::vector<int> elimination_ranks(const Eigen::SparseMatrix<double>& matrix, EliminationOrder order = EliminationOrder::Automatic);
 
 class SparseCholesky {
  public:
