@@ -41,7 +41,9 @@ std::vector<int> nested_dissection_ranks(const Eigen::SparseMatrix<double>& matr
   idx_t options[METIS_NOPTIONS];
   METIS_SetDefaultOptions(options);
   options[METIS_OPTION_NUMBERING] = 0;
-  options[METIS_OPTION_SEED] = 1;  // METIS draws random numbers; a fixed seed, the same order every time
+  // METIS seeds the C library's rand() with this and draws from it: the same order every time,
+  // unless another thread of the process calls rand() meanwhile (hdeform never does).
+  options[METIS_OPTION_SEED] = 1;
   std::vector<idx_t> order(static_cast<std::size_t>(n)), inverse(static_cast<std::size_t>(n));
   const int status = METIS_NodeND(&n, first.data(), neighbours.data(), nullptr, options, order.data(), inverse.data());
   if (status == METIS_ERROR_MEMORY) throw std::bad_alloc();
