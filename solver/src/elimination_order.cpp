@@ -2,8 +2,10 @@
 #include <metis.h>
 
 #include <Eigen/OrderingMethods>
+#include <numeric>
 #include <stdexcept>
 #include <string>
+#include <type_traits>
 
 #include "hdeform/sparse_cholesky.h"
 #include "hdeform/trace.h"
@@ -21,6 +23,7 @@ std::vector<int> minimum_degree_ranks(const Eigen::SparseMatrix<double>& matrix)
 }
 
 std::vector<int> nested_dissection_ranks(const Eigen::SparseMatrix<double>& matrix) {
+  static_assert(std::is_same_v<idx_t, int>, "METIS with 32-bit indices (Debian's) fills the ranks in place");
   idx_t n = static_cast<idx_t>(matrix.rows());
   std::vector<int> rank(static_cast<std::size_t>(n));
   // METIS's graph: each unknown's neighbours, without itself. The matrix is column-major with
@@ -35,7 +38,7 @@ std::vector<int> nested_dissection_ranks(const Eigen::SparseMatrix<double>& matr
     first[static_cast<std::size_t>(j) + 1] = static_cast<idx_t>(neighbours.size());
   }
   if (neighbours.empty()) {  // no fill whatever the order (METIS wants edges)
-    for (idx_t k = 0; k < n; ++k) rank[static_cast<std::size_t>(k)] = static_cast<int>(k);
+    std::iota(rank.begin(), rank.end(), 0);
     return rank;
   }
   idx_t options[METIS_NOPTIONS];
@@ -44,12 +47,11 @@ std::vector<int> nested_dissection_ranks(const Eigen::SparseMatrix<double>& matr
   // METIS seeds the C library's rand() with this and draws from it: the same order every time,
   // unless another thread of the process calls rand() meanwhile (hdeform never does).
   options[METIS_OPTION_SEED] = 1;
-  std::vector<idx_t> order(static_cast<std::size_t>(n)), inverse(static_cast<std::size_t>(n));
-  const int status = METIS_NodeND(&n, first.data(), neighbours.data(), nullptr, options, order.data(), inverse.data());
+  // METIS gives the order (the unknown eliminated at each step) and its inverse, the ranks.
+  std::vector<idx_t> order(static_cast<std::size_t>(n));
+  const int status = METIS_NodeND(&n, first.data(), neighbours.data(), nullptr, options, order.data(), rank.data());
   if (status == METIS_ERROR_MEMORY) throw std::bad_alloc();
   if (status != METIS_OK) throw std::runtime_error("METIS nested dissection failed (status " + std::to_string(status) + ")");
-  // order[k] is the unknown eliminated at step k.
-  for (idx_t k = 0; k < n; ++k) rank[static_cast<std::size_t>(order[static_cast<std::size_t>(k)])] = static_cast<int>(k);
   return rank;
 }
 
