@@ -383,7 +383,7 @@ class BenchCommand final : public BatchCommand {
       Deformer dragged(mesh, constraints, fresh);
       for (int step = 1; step <= kRefineDragSteps; ++step) {
         const HandleTransform at = transform.at_fraction(static_cast<double>(step) / kRefineDragSteps);
-        dragged.deform(std::span(&at, 1), positions);
+        dragged.deform(std::span(&at, 1), positions, step == 1 ? RefinementStart::FromPapersResult : RefinementStart::FromLastEdit);
         dragged.refine(positions, kRefineDragIterations);
       }
       convergence[name]["after_drag"] = until_within(dragged, kPlainCap);

@@ -125,6 +125,10 @@ void RefineChoice::add_options(CLI::App& command) {
       ->capture_default_str();
   command.add_option("--refine-tolerance", tolerance, "--refine auto: converged when the energy falls by less than this fraction")
       ->capture_default_str();
+  command.add_option("--refine-settle", settle,
+                     "--refine auto: also stop once a plain iteration would move no vertex by more than this fraction of the "
+                     "bounding-box diagonal (the editor's stop: " + std::to_string(kEditorSettle).substr(0, 6) + "; 0: off)")
+      ->capture_default_str();
   command.add_flag("--no-acceleration", plain, "Plain local/global iterations, without Anderson acceleration");
 }
 
@@ -141,7 +145,9 @@ int RefineChoice::parsed_iterations() const {
 RefinementOptions RefineChoice::options() const {
   if (!(tolerance > 0.0 && tolerance < 1.0)) throw UsageError("--refine-tolerance must lie between 0 and 1");
   RefinementOptions options;
+  if (!(settle >= 0.0 && settle < 1.0)) throw UsageError("--refine-settle must be 0 (off) or a fraction below 1");
   options.tolerance = tolerance;
+  options.settle = settle;
   options.accelerate = !plain;
   return options;
 }

@@ -76,6 +76,7 @@ struct SolverChoice {
 struct RefineChoice {
   std::string iterations = "0";
   double tolerance = RefinementOptions{}.tolerance;
+  double settle = RefinementOptions{}.settle;
   bool plain = false;
 
   void add_options(CLI::App& command);

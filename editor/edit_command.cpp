@@ -3,6 +3,7 @@
 #include <chrono>
 #include <nlohmann/json.hpp>
 #include <numbers>
+#include <optional>
 #include <unordered_map>
 
 #include "batch_commands.h"
@@ -84,7 +85,7 @@ class EditCommand final : public BatchCommand {
     int refine_iterations = refine_.parsed_iterations();
     options.refinement = refine_.options();
     options.prepare_refinement = refine_iterations > 0;
-    bool session_refines = false;  // the session's current stage: refined as the editor saves it
+    std::optional<EditStage> session_stage;  // refined as the editor saves it, when it refines
 
     LoadedMesh loaded;
     EditConstraints constraints;
@@ -106,8 +107,8 @@ class EditCommand final : public BatchCommand {
       }
       constraints = session.current.constraints();
       transforms = session.current.transforms();
-      session_refines = session.current.refine;
-      options.prepare_refinement = session_refines;
+      if (session.current.refine) session_stage = session.current;
+      options.prepare_refinement = session.current.refine;
       if (transforms.empty()) {
         // Nothing is being edited: the result is the rest shape after the applied stages.
         write_mesh(out_path_, loaded.mesh);
@@ -170,17 +171,15 @@ class EditCommand final : public BatchCommand {
       const double fraction = static_cast<double>(step) / steps_;
       for (std::size_t h = 0; h < transforms.size(); ++h) step_transforms[h] = transforms[h].at_fraction(fraction);
       const auto start = std::chrono::steady_clock::now();
-      deformer.deform(step_transforms, positions);
+      // After the first step, each step's refinement goes on from the last one's, as in a drag shown live.
+      deformer.deform(step_transforms, positions, step == 1 ? RefinementStart::FromPapersResult : RefinementStart::FromLastEdit);
       if (refine_iterations > 0) refined_iterations += deformer.refine(positions, refine_iterations);
       step_ms.push_back(milliseconds_since(start));
     }
-    if (session_refines) {
+    if (session_stage) {
       progress("refining until converged, as the editor saves it");
-      EditStage stage;
-      stage.refine = true;
-      for (std::size_t h = 0; h < transforms.size(); ++h) stage.handles.push_back({deformer.constraints().handles[h], transforms[h]});
       const auto start = std::chrono::steady_clock::now();
-      positions = stage_result(deformer, stage);
+      positions = stage_result(deformer, *session_stage);
       step_ms.back() += milliseconds_since(start);
       refine_iterations = deformer.refinement_status().iterations;
       refined_iterations = refine_iterations;
@@ -234,6 +233,8 @@ class EditCommand final : public BatchCommand {
                           {"energy", status.energy},
                           {"unrefined_energy", status.unrefined_energy},
                           {"converged", status.converged},
+                          {"settled", status.settled},
+                          {"largest_step", status.largest_step},
                           {"accelerated", status.accelerated},
                           {"rejected", status.rejected}};
     }

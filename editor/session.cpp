@@ -1,5 +1,6 @@
 #include "session.h"
 
+#include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
@@ -45,7 +46,9 @@ json transform_json(const HandleTransform& transform) {
 json stage_json(const EditStage& stage) {
   json handles = json::array();
   for (const auto& handle : stage.handles) handles.push_back({{"vertices", handle.vertices}, {"transform", transform_json(handle.transform)}});
-  return {{"region_of_interest", stage.region_of_interest}, {"fixed", stage.fixed}, {"handles", handles}, {"refine", stage.refine}};
+  json out = {{"region_of_interest", stage.region_of_interest}, {"fixed", stage.fixed}, {"handles", handles}, {"refine", stage.refine}};
+  if (stage.refine_settle > 0.0) out["refine_settle"] = stage.refine_settle;
+  return out;
 }
 
 // Reading with errors that name the line: every accessor takes the value's JSON pointer.
@@ -137,6 +140,11 @@ class Reader {
     const auto& refine = member(value, pointer, "refine", false);  // absent in sessions written before refinement
     if (!refine.is_null() && !refine.is_boolean()) fail(pointer + "/refine", "expected true or false");
     stage.refine = refine.is_boolean() && refine.get<bool>();
+    const auto& settle = member(value, pointer, "refine_settle", false);  // absent: the energy test alone
+    if (!settle.is_null() && (!settle.is_number() || !std::isfinite(settle.get<double>()) || settle.get<double>() < 0.0 || settle.get<double>() >= 1.0)) {
+      fail(pointer + "/refine_settle", "expected a fraction of the bounding-box diagonal, 0 or more and below 1");
+    }
+    stage.refine_settle = settle.is_number() ? settle.get<double>() : 0.0;
     return stage;
   }
 
@@ -154,6 +162,12 @@ EditConstraints EditStage::constraints() const {
   return constraints;
 }
 
+RefinementOptions EditStage::refinement_options() const {
+  RefinementOptions options;
+  options.settle = refine_settle;
+  return options;
+}
+
 std::vector<HandleTransform> EditStage::transforms() const {
   std::vector<HandleTransform> out;
   for (const auto& handle : handles) out.push_back(handle.transform);
@@ -162,7 +176,7 @@ std::vector<HandleTransform> EditStage::transforms() const {
 
 bool EditStage::operator==(const EditStage& other) const {
   if (region_of_interest != other.region_of_interest || fixed != other.fixed || handles.size() != other.handles.size() ||
-      refine != other.refine) {
+      refine != other.refine || refine_settle != other.refine_settle) {
     return false;
   }
   for (std::size_t h = 0; h < handles.size(); ++h) {
@@ -330,9 +344,9 @@ Eigen::MatrixXd stage_result(Deformer& deformer, const EditStage& stage) {
   const auto transforms = stage.transforms();
   deformer.deform(transforms, positions);
   if (stage.refine) {
-    deformer.set_refinement_options(RefinementOptions{});
-    deformer.restart_refinement();
-    deformer.refine(positions, RefinementOptions{}.max_iterations);
+    const RefinementOptions options = stage.refinement_options();
+    deformer.set_refinement_options(options);
+    deformer.refine(positions, options.max_iterations);
   }
   return positions;
 }

@@ -12,7 +12,6 @@
 
 #include "hdeform/constraints.h"
 #include "hdeform/deformer.h"
-#include "hdeform/deformer.h"
 #include "hdeform/handle_transform.h"
 #include "hdeform/mesh.h"
 
@@ -28,9 +27,14 @@ struct EditStage {
   std::vector<int> fixed;
   std::vector<SessionHandle> handles;
   bool refine = false;  // as-rigid-as-possible refinement after the paper's update (see stage_result)
+  // Its settle test (RefinementOptions::settle): kEditorSettle in sessions the editor writes, 0
+  // (the energy test alone, as `edit --refine auto`) where absent.
+  double refine_settle = 0.0;
 
   EditConstraints constraints() const;
   std::vector<HandleTransform> transforms() const;
+  // Where its refinement stops: the default RefinementOptions with refine_settle.
+  RefinementOptions refinement_options() const;
   bool operator==(const EditStage& other) const;
 };
 
@@ -76,8 +80,8 @@ Mesh load_session_mesh(const Session& session, const SessionSource* source = nul
 
 // A stage's result as every saved or applied mesh is computed, in the editor and by `hdeform edit
 // --session` alike: the paper's update for the stage's transforms and, when the stage refines,
-// refinement iterations from the paper's result (a cold start, whatever the deformer did before)
-// until they converge with the default RefinementOptions. The same bits wherever it runs.
+// refinement iterations from the paper's result until they converge with the stage's
+// refinement_options(). The same bits wherever it runs, whatever the deformer did before.
 // `deformer` must have the stage's mesh and constraints.
 Eigen::MatrixXd stage_result(Deformer& deformer, const EditStage& stage);
 

@@ -44,5 +44,42 @@ TEST_P(BenchmarkCase, KeepsConstraintsExactAndStaysFinite) {
 
 INSTANTIATE_TEST_SUITE_P(DeformationBenchmark, BenchmarkCase, ::testing::Values("bar", "cactus", "cylinder", "plane"));
 
+// The reproduction of the editor's stall, in the library: the cylinder's handle translated along x
+// through 3, 6, 3, 0 and −3, refined until converged at each, against a fresh Deformer at each
+// pose. It used to stop at −3 after one iteration (energy 4.21 where a fresh one reaches 0.948)
+// and to report unrefined energies that drifted with the path (17.7417 against 17.7405 at 6).
+TEST(BenchmarkCylinder, ATranslationThatReversesPastTheRestShapeRefinesAsAFreshDeformer) {
+  HDEFORM_REQUIRE_SHARED_MESHES();
+  const auto folder = test::shared_meshes() / "deformation-benchmark";
+  const Mesh mesh = read_obj(folder / "cylinder.obj");
+  EditConstraints constraints;
+  constraints.fixed = read_vertex_indices(folder / "cylinder-fixed.txt", mesh.vertex_count());
+  constraints.handles = {read_vertex_indices(folder / "cylinder-handle.txt", mesh.vertex_count())};
+  DeformerOptions options;
+  options.prepare_refinement = true;
+  Deformer driven(mesh, constraints, options);
+  Eigen::MatrixXd positions;
+  for (const double x : {3.0, 6.0, 3.0, 0.0, -3.0}) {
+    SCOPED_TRACE("x = " + std::to_string(x));
+    Eigen::Matrix<double, 3, 4> affine = Eigen::Matrix<double, 3, 4>::Zero();
+    affine.leftCols<3>().setIdentity();
+    affine(0, 3) = x;
+    const HandleTransform pose = HandleTransform::from_affine(affine);
+    driven.deform(std::span(&pose, 1), positions);
+    driven.refine(positions, options.refinement.max_iterations);
+    Deformer fresh(mesh, constraints, options);
+    Eigen::MatrixXd expected;
+    fresh.deform(std::span(&pose, 1), expected);
+    fresh.refine(expected, options.refinement.max_iterations);
+    EXPECT_EQ(positions, expected);
+    EXPECT_EQ(driven.refinement_status().unrefined_energy, fresh.refinement_status().unrefined_energy);
+    EXPECT_EQ(driven.refinement_status().energy, fresh.refinement_status().energy);
+    if (x == 0.0) continue;
+    EXPECT_TRUE(driven.refinement_status().converged);
+    EXPECT_GT(driven.refinement_status().iterations, 5);
+    EXPECT_LT(driven.refinement_status().energy, 0.5 * driven.refinement_status().unrefined_energy);
+  }
+}
+
 }  // namespace
 }  // namespace hdeform

@@ -225,27 +225,118 @@ TEST(Refinement, NothingMovedHasZeroEnergyAndStaysAtRest) {
   EXPECT_LE((positions - drag.shape.mesh.positions).cwiseAbs().maxCoeff(), 1e-12);
 }
 
-TEST(Refinement, AWarmStartThatDoesWorseThanThePapersResultIsDropped) {
+// The handle of the drag moved sideways by `x` (in the drag's own direction, x = 1 its full length).
+HandleTransform sideways_by(const Drag& drag, double x) {
+  Eigen::Matrix<double, 3, 4> affine = Eigen::Matrix<double, 3, 4>::Zero();
+  affine.leftCols<3>().setIdentity();
+  affine.col(3) = x * drag.sideways.translation;
+  return HandleTransform::from_affine(affine);
+}
+
+// A pose's refined shape and both its energies are a function of the pose: a Deformer driven
+// through a drag that reverses past the rest shape (the editor's reproduction, in the library)
+// gives, at each pose, the same bits as a fresh Deformer given that pose alone.
+TEST(Refinement, EachPoseGivesTheSameBitsAsAFreshDeformerWhateverCameBefore) {
+  const Drag drag;
+  Deformer driven(drag.shape.mesh, drag.shape.demo_constraints, refined());
+  Eigen::MatrixXd positions;
+  for (const double x : {0.5, 1.0, 0.5, 0.0, -0.5, 1.0}) {
+    SCOPED_TRACE("x = " + std::to_string(x));
+    const HandleTransform pose = sideways_by(drag, x);
+    driven.deform(std::span(&pose, 1), positions);
+    driven.refine(positions, 1000);
+    Deformer fresh(drag.shape.mesh, drag.shape.demo_constraints, refined());
+    Eigen::MatrixXd expected;
+    fresh.deform(std::span(&pose, 1), expected);
+    fresh.refine(expected, 1000);
+    EXPECT_EQ(positions, expected);
+    EXPECT_EQ(driven.refinement_status().unrefined_energy, fresh.refinement_status().unrefined_energy);
+    EXPECT_EQ(driven.refinement_status().energy, fresh.refinement_status().energy);
+    EXPECT_EQ(driven.refinement_status().iterations, fresh.refinement_status().iterations);
+    EXPECT_TRUE(driven.refinement_status().converged);
+    if (x != 0.0) EXPECT_GT(driven.refinement_status().iterations, 3) << "a bend takes more than a few iterations";
+  }
+}
+
+// A start from the last edit (a drag shown live) reports the pose's own unrefined energy, and one
+// that does worse than the paper's result goes on from there to where a fresh run goes: it is
+// never taken for converged.
+TEST(Refinement, AStartFromTheLastEditThatDoesWorseGoesOnFromThePapersResult) {
   const Drag drag;
   Deformer deformer(drag.shape.mesh, drag.shape.demo_constraints, refined(true, 1e-10));
   Eigen::MatrixXd positions;
   deformer.deform(std::span(&drag.sideways, 1), positions);
-  deformer.refine(positions, 60);
+  deformer.refine(positions, 200);
   EXPECT_FALSE(deformer.refinement_status().started_from_paper);  // a first edit starts from the paper
-  // Nearly back at rest: the bent rotations are a poor start, the paper's result a good one.
-  const HandleTransform nudge = drag.sideways.at_fraction(0.01);
-  deformer.deform(std::span(&nudge, 1), positions);
-  deformer.refine(positions, 1);
+  // Back past the rest shape: the bent rotations are a poor start, the paper's result a good one.
+  const HandleTransform back = sideways_by(drag, -0.5);
+  deformer.deform(std::span(&back, 1), positions, RefinementStart::FromLastEdit);
+  EXPECT_EQ(deformer.refine(positions, 1), 1);
   EXPECT_TRUE(deformer.refinement_status().started_from_paper);
-  EXPECT_LE(deformer.refinement_status().energy, deformer.refinement_status().unrefined_energy);
-  // A small step onwards from the bent shape keeps the warm start.
+  EXPECT_FALSE(deformer.refinement_status().converged) << "falling back to the paper's result is not converging";
+  deformer.refine(positions, 1000);
+  ASSERT_TRUE(deformer.refinement_status().converged);
+
+  Deformer fresh(drag.shape.mesh, drag.shape.demo_constraints, refined(true, 1e-10));
+  Eigen::MatrixXd expected;
+  fresh.deform(std::span(&back, 1), expected);
+  fresh.refine(expected, 1000);
+  EXPECT_EQ(deformer.refinement_status().unrefined_energy, fresh.refinement_status().unrefined_energy);
+  EXPECT_NEAR(deformer.refinement_status().energy, fresh.refinement_status().energy, 1e-6 * fresh.refinement_status().energy);
+  EXPECT_LE((positions - expected).cwiseAbs().maxCoeff(), 1e-4 * bounding_box_diagonal(drag.shape.mesh.positions));
+  EXPECT_LT(fresh.refinement_status().energy, 0.8 * fresh.refinement_status().unrefined_energy);
+
+  // A small step onwards from the bent shape keeps the start from the last edit, and its
+  // unrefined energy is still the pose's own.
   deformer.deform(std::span(&drag.sideways, 1), positions);
-  deformer.refine(positions, 60);
+  deformer.refine(positions, 200);
   const HandleTransform further = drag.sideways.at_fraction(1.02);
-  deformer.deform(std::span(&further, 1), positions);
+  deformer.deform(std::span(&further, 1), positions, RefinementStart::FromLastEdit);
   deformer.refine(positions, 1);
   EXPECT_FALSE(deformer.refinement_status().started_from_paper);
   EXPECT_LT(deformer.refinement_status().energy, deformer.refinement_status().unrefined_energy);
+  Deformer further_fresh(drag.shape.mesh, drag.shape.demo_constraints, refined(true, 1e-10));
+  further_fresh.deform(std::span(&further, 1), expected);
+  further_fresh.refine(expected, 0);
+  EXPECT_EQ(deformer.refinement_status().unrefined_energy, further_fresh.refinement_status().unrefined_energy);
+}
+
+// The settle test stops at the first iteration from whose state a plain iteration would move no
+// vertex by more than the fraction of the diagonal; largest_step is that move, as measured here.
+TEST(Refinement, TheSettleTestStopsAtTheFirstSmallPlainStep) {
+  const Drag drag;
+  const double diagonal = bounding_box_diagonal(drag.shape.mesh.positions);
+  // The first iteration of a run is a plain one (nothing to mix yet): its move is largest_step.
+  {
+    Deformer deformer(drag.shape.mesh, drag.shape.demo_constraints, refined());
+    Eigen::MatrixXd positions;
+    deformer.deform(std::span(&drag.sideways, 1), positions);
+    const Eigen::MatrixXd paper = positions;
+    ASSERT_EQ(deformer.refine(positions, 1), 1);
+    EXPECT_NEAR(deformer.refinement_status().largest_step, (positions - paper).rowwise().norm().maxCoeff() / diagonal, 1e-12);
+    EXPECT_GT(deformer.refinement_status().largest_step, 1e-3);
+  }
+  // Without the settle test: the steps of a long run, iteration by iteration.
+  std::vector<double> steps;
+  {
+    Deformer deformer(drag.shape.mesh, drag.shape.demo_constraints, refined(true, 1e-15));
+    Eigen::MatrixXd positions;
+    deformer.deform(std::span(&drag.sideways, 1), positions);
+    for (int k = 0; k < 300 && deformer.refine(positions, 1) == 1; ++k) steps.push_back(deformer.refinement_status().largest_step);
+  }
+  for (const double settle : {1e-3, 1e-4, 1e-5}) {
+    const auto first_small = std::find_if(steps.begin(), steps.end(), [&](double step) { return step <= settle; });
+    ASSERT_NE(first_small, steps.end()) << settle;
+    DeformerOptions options = refined(true, 1e-15);
+    options.refinement.settle = settle;
+    Deformer deformer(drag.shape.mesh, drag.shape.demo_constraints, options);
+    Eigen::MatrixXd positions;
+    deformer.deform(std::span(&drag.sideways, 1), positions);
+    deformer.refine(positions, 1000);
+    EXPECT_TRUE(deformer.refinement_status().converged);
+    EXPECT_TRUE(deformer.refinement_status().settled);
+    EXPECT_EQ(deformer.refinement_status().iterations, first_small - steps.begin() + 1) << settle;
+  }
 }
 
 TEST(Refinement, ConstrainedVerticesStayExactlyAtTheirTargets) {
@@ -405,7 +496,7 @@ TEST(Refinement, ADragSettlesToTheSameShapeAsOneJump) {
   Deformer steps(drag.shape.mesh, drag.shape.demo_constraints, refined(true, 1e-15));
   for (int step = 1; step <= 8; ++step) {
     const HandleTransform at = drag.sideways.at_fraction(step / 8.0);
-    steps.deform(std::span(&at, 1), dragged);
+    steps.deform(std::span(&at, 1), dragged, RefinementStart::FromLastEdit);
     steps.refine(dragged, 3);
   }
   steps.refine(dragged, 2000);

@@ -73,6 +73,34 @@ TEST(Session, RoundTripsExactly) {
   back = cli::read_session(dir.file("s.json"));
   back.applied[0].refine = false;
   EXPECT_FALSE(back == session);  // ... also the refinement setting
+  session.current.refine = true;
+  session.current.refine_settle = kEditorSettle;
+  cli::write_session(dir.file("settled.json"), session);
+  back = cli::read_session(dir.file("settled.json"));
+  EXPECT_EQ(back, session);
+  back.current.refine_settle = 0.0;
+  EXPECT_FALSE(back == session);  // ... and where it stops
+}
+
+// The editor's sessions carry its settle test: the replay stops where the editor stopped, at the
+// first iteration the settle test accepts, which is earlier than the energy test alone.
+TEST(Session, ARefinedStageStopsWhereItsSettleTestSays) {
+  Session session = demo_session();
+  session.current.refine = true;
+  const Mesh base = cli::load_session_mesh(session);
+  const Eigen::MatrixXd converged = cli::replay_session(session, base, {});
+  session.current.refine_settle = 1e-3;
+  const Eigen::MatrixXd settled = cli::replay_session(session, base, {});
+  DeformerOptions options;
+  options.prepare_refinement = true;
+  options.refinement.settle = 1e-3;
+  Deformer deformer(base, session.current.constraints(), options);
+  Eigen::MatrixXd by_hand;
+  deformer.deform(session.current.transforms(), by_hand);
+  deformer.refine(by_hand, RefinementOptions{}.max_iterations);
+  EXPECT_TRUE(deformer.refinement_status().settled);
+  EXPECT_EQ(settled, by_hand);
+  EXPECT_GT((settled - converged).cwiseAbs().maxCoeff(), 0.0) << "the settle test should stop earlier than the energy test";
 }
 
 TEST(Session, ARefinedStageReplaysAsRefinedAndOlderSessionsAsThePapersMethod) {
@@ -174,6 +202,7 @@ TEST(Session, MalformedSessionsNameTheLineAndTheProblem) {
                        8, "axis is zero");
   expect_session_error(dir, head + " \"current\": {\n  \"handles\": [\n   {\"vertices\": []}\n  ]\n }\n}\n", 7, "at least one vertex");
   expect_session_error(dir, head + " \"applied\": 3,\n \"current\": {}\n}\n", 5, "expected a list of stages");
+  expect_session_error(dir, head + " \"current\": {\n  \"refine\": true,\n  \"refine_settle\": -1\n }\n}\n", 7, "below 1");
 }
 
 }  // namespace

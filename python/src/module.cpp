@@ -193,7 +193,8 @@ int refine_argument(const py::object& refine, const RefinementOptions& options) 
 class PyDeformer {
  public:
   PyDeformer(const py::object& positions, const py::object& triangles, const py::object& fixed, const py::object& handles,
-             const py::object& roi, const std::string& backend, const py::object& refine, double refine_tolerance, bool acceleration) {
+             const py::object& roi, const std::string& backend, const py::object& refine, double refine_tolerance, double refine_settle,
+             bool acceleration) {
     Mesh mesh = mesh_argument(positions, triangles, "mesh");
     EditConstraints constraints;
     constraints.fixed = indices_argument(fixed, "fixed");
@@ -204,7 +205,10 @@ class PyDeformer {
     for (const auto handle : handles.cast<py::sequence>()) constraints.handles.push_back(indices_argument(handle, "handles[" + std::to_string(h++) + "]"));
     if (!roi.is_none()) constraints.region_of_interest = indices_argument(roi, "roi");
     DeformerOptions options = DeformerOptions::solver(backend_argument(backend));
+    if (!(refine_tolerance > 0.0 && refine_tolerance < 1.0)) throw py::value_error("refine_tolerance must lie between 0 and 1");
+    if (!(refine_settle >= 0.0 && refine_settle < 1.0)) throw py::value_error("refine_settle must be 0 (off) or a fraction below 1");
     options.refinement.tolerance = refine_tolerance;
+    options.refinement.settle = refine_settle;
     options.refinement.accelerate = acceleration;
     refine_iterations_ = refine_argument(refine, options.refinement);
     options.prepare_refinement = refine_iterations_ > 0;
@@ -232,6 +236,8 @@ class PyDeformer {
     result["energy"] = status.energy;
     result["unrefined_energy"] = status.unrefined_energy;
     result["converged"] = status.converged;
+    result["settled"] = status.settled;
+    result["largest_step"] = status.largest_step;
     return result;
   }
   py::dict timings() const {
@@ -479,12 +485,14 @@ PYBIND11_MODULE(_core, m) {
 
   py::class_<PyDeformer>(m, "Deformer", "The editing engine: set up once per mesh and vertex classes, then deform per edit")
       .def(py::init<const py::object&, const py::object&, const py::object&, const py::object&, const py::object&, const std::string&,
-                    const py::object&, double, bool>(),
+                    const py::object&, double, double, bool>(),
            py::arg("V"), py::arg("F"), py::arg("fixed"), py::arg("handles"), py::arg("roi") = py::none(),
            py::arg("backend") = std::string(to_string(default_backend())), py::arg("refine") = 0,
-           py::arg("refine_tolerance") = RefinementOptions{}.tolerance, py::arg("acceleration") = true)
+           py::arg("refine_tolerance") = RefinementOptions{}.tolerance, py::arg("refine_settle") = RefinementOptions{}.settle,
+           py::arg("acceleration") = true)
       .def("deform", &PyDeformer::deform, py::arg("transforms"),
-           "Deformed positions (n x 3) for one transform per handle (a Transform or a 3x4 / 4x4 array)")
+           "Deformed positions (n x 3) for one transform per handle (a Transform or a 3x4 / 4x4 array); with refine, refined "
+           "from the paper's result, so the same pose gives the same positions whatever was deformed before")
       .def_property_readonly("field", &PyDeformer::field, "The harmonic field h: 1 on the handles, 0 on the fixed vertices")
       .def_property_readonly("warnings", &PyDeformer::warnings)
       .def_property_readonly("refinement", &PyDeformer::refinement, "The last edit's as-rigid-as-possible refinement")

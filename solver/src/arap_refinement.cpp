@@ -2,6 +2,7 @@
 
 #include <Eigen/Cholesky>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
 
 #include <algorithm>
 #include <chrono>
@@ -30,14 +31,12 @@ void for_each_chunk(std::size_t items, Body body) {
 }
 
 // Rotation fits: Newton steps from the last fit, which moves little. For the paper's result, whose
-// energy is reported and decides where an edit starts: one from the last edit's fit to it (on a
-// buddha-206k drag step its energy comes out within 1e-10 of the converged fit's), up to eight
-// from the field's rotations in a first edit. Within an iteration one: each step raises the fit,
-// so the energy still falls, and the rotations converge with the positions (one step or two per
-// iteration take as many iterations to converge: buddha-206k, cylinder).
+// energy is reported and decides where an edit starts: up to eight from the field's rotations.
+// Within an iteration one: each step raises the fit, so the energy still falls, and the rotations
+// converge with the positions (one step or two per iteration take as many iterations to converge:
+// buddha-206k, cylinder).
 constexpr double kRotationTolerance = 1e-7;
-constexpr int kPaperFitSteps = 1;       // warm: from the last edit's fit
-constexpr int kFirstPaperFitSteps = 8;  // cold: from the field's rotations
+constexpr int kPaperFitSteps = 8;
 constexpr int kIterationSteps = 1;
 
 Eigen::Vector3d row3(const std::vector<double>& values, std::size_t row) { return {values[3 * row], values[3 * row + 1], values[3 * row + 2]}; }
@@ -135,6 +134,7 @@ ArapRefinement::ArapRefinement(const Mesh& rest, const CotangentWeights& weights
     rest_scale += multiplicity * std::abs(energy);
   }
   energy_floor_ = 1e-14 * rest_scale;
+  diagonal_ = bounding_box_diagonal(rest.positions);
   scales_.assign(triangles, std::numeric_limits<double>::quiet_NaN());  // differs from any scale: built at the first edit
   new_scales_.assign(triangles, 1.0);
 
@@ -219,18 +219,20 @@ void ArapRefinement::rebuild_coefficients() {
   });
 }
 
-void ArapRefinement::begin(const Eigen::MatrixXd& positions) {
+void ArapRefinement::begin(const Eigen::MatrixXd& positions, RefinementStart start) {
   const auto free_count = static_cast<std::size_t>(system_.free_count());
+  const bool from_last = start == RefinementStart::FromLastEdit && has_refined_;
   auto& rotations = rotation_[static_cast<std::size_t>(current_)];
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, static_cast<std::size_t>(rotation_count_), 2048), [&](const auto& range) {
     for (std::size_t i = range.begin(); i != range.end(); ++i) {
+      // The paper's fit starts from the field's rotation, as a fresh Deformer's does.
+      paper_rotation_[i] = new_field_[i].toRotationMatrix();
       // The many small turns of the fits leave rounding in the matrices: a fresh start each edit.
       // (Where the field stays, so do the rotations: the Cayley turns of the fits keep them
       // orthonormal to about 1e-16 per fit, 1e-11 after 100,000.)
-      if (new_field_[i].coeffs() == field_[i].coeffs()) continue;
-      const Eigen::Matrix3d change = (new_field_[i] * field_[i].conjugate()).toRotationMatrix();
-      rotations[i] = orthonormalized(change * rotations[i]);
-      paper_rotation_[i] = orthonormalized(change * paper_rotation_[i]);
+      if (from_last && new_field_[i].coeffs() != field_[i].coeffs()) {
+        rotations[i] = orthonormalized((new_field_[i] * field_[i].conjugate()).toRotationMatrix() * rotations[i]);
+      }
       field_[i] = new_field_[i];
     }
   });
@@ -249,23 +251,20 @@ void ArapRefinement::begin(const Eigen::MatrixXd& positions) {
     }
   });
 
-  // The paper's result with rotations fitted to it: the start of a first edit, and the
-  // fallback of a later one whose warm start does worse (a reset to the rest shape, say).
+  // The paper's result with rotations fitted to it: where a start from the paper's result
+  // begins, and where a start from the last edit goes on if its first iteration does worse.
   for (std::size_t row = 0; row < free_count; ++row) {
     for (int k = 0; k < 3; ++k) paper_[3 * row + static_cast<std::size_t>(k)] = positions(vertex_[row], k);
   }
   std::copy(paper_.begin(), paper_.end(), positions_.begin());
   status_ = RefinementStatus{};
-  // From the last edit's fit to the paper's result (in place: each vertex reads only its own), which
-  // one drag step changes little; a first edit's start is the field's rotation.
-  if (!warm_) std::copy(rotation_[static_cast<std::size_t>(current_)].begin(), rotation_[static_cast<std::size_t>(current_)].end(), paper_rotation_.begin());
-  energy_ = fit_rotations(paper_rotation_, paper_rotation_, warm_ ? kPaperFitSteps : kFirstPaperFitSteps);
+  energy_ = fit_rotations(paper_rotation_, paper_rotation_, kPaperFitSteps);
   status_.unrefined_energy = unlimited_energy_;  // the plain ARAP energy of the paper's result
   status_.energy = energy_;
   status_.converged = energy_ <= energy_floor_;  // nothing moved: nothing to refine, the result stays as it is
-  consistent_ = !warm_;
-  if (!warm_) std::copy(paper_rotation_.begin(), paper_rotation_.end(), rotation_[static_cast<std::size_t>(current_)].begin());
-  warm_ = true;
+  consistent_ = !from_last;
+  if (!from_last) std::copy(paper_rotation_.begin(), paper_rotation_.end(), rotations.begin());
+  has_refined_ = true;
   stored_ = 0;
   oldest_ = 0;
   has_previous_ = false;
@@ -275,14 +274,6 @@ void ArapRefinement::begin_at_rest() {
   status_ = RefinementStatus{};
   status_.converged = true;
   energy_ = 0.0;
-}
-
-void ArapRefinement::restart() {
-  for (auto& rotations : rotation_) std::fill(rotations.begin(), rotations.end(), Eigen::Matrix3d::Identity());
-  std::fill(paper_rotation_.begin(), paper_rotation_.end(), Eigen::Matrix3d::Identity());
-  std::fill(field_.begin(), field_.end(), Eigen::Quaterniond::Identity());
-  current_ = 0;
-  warm_ = false;
 }
 
 void ArapRefinement::assemble() {
@@ -306,12 +297,24 @@ void ArapRefinement::solve() {
   timings_.solve_ms = milliseconds_since(start);
 }
 
+double ArapRefinement::largest_plain_step() const {
+  return tbb::parallel_reduce(
+      tbb::blocked_range<std::size_t>(0, static_cast<std::size_t>(system_.free_count()), 4096), 0.0,
+      [&](const auto& range, double largest) {
+        for (std::size_t row = range.begin(); row != range.end(); ++row) largest = std::max(largest, (row3(rhs_, row) - row3(positions_, row)).squaredNorm());
+        return largest;
+      },
+      [](double a, double b) { return std::max(a, b); });  // the same for any split
+}
+
 void ArapRefinement::mix() {
   const auto start = Clock::now();
   const std::size_t size = rhs_.size();
   double* x = positions_.data();  // the free rows come first: the current state
   const double* g = rhs_.data();
   mixed_ = false;
+  // Only where the rotations belong to the positions is G(x) − x a step from x.
+  status_.largest_step = consistent_ && diagonal_ > 0.0 ? std::sqrt(largest_plain_step()) / diagonal_ : std::numeric_limits<double>::infinity();
   if (!consistent_) {
     // A warm start has rotations but no positions they were fitted to: no residual yet.
     std::copy(rhs_.begin(), rhs_.end(), positions_.begin());
@@ -483,13 +486,16 @@ void ArapRefinement::fit() {
   const auto from = static_cast<std::size_t>(current_), to = static_cast<std::size_t>(1 - current_);
   const auto refit = [&] { return fit_rotations(rotation_[from], rotation_[to], kIterationSteps); };
   double energy = refit();
+  bool fell_back = false;
   if (!consistent_) {
     if (energy > energy_) {
-      // The warm start did worse than the paper's result (which energy_ holds): start from that.
+      // The start from the last edit did worse than the paper's result (which energy_ holds): the
+      // run goes on from there, as one from the paper's result would (not converged: nothing fell).
       std::copy(paper_.begin(), paper_.end(), positions_.begin());
       std::copy(paper_rotation_.begin(), paper_rotation_.end(), rotation_[to].begin());
       energy = energy_;
       status_.started_from_paper = true;
+      fell_back = true;
     }
     consistent_ = true;
   } else if (mixed_ && energy > energy_) {
@@ -503,7 +509,8 @@ void ArapRefinement::fit() {
     ++status_.accelerated;
   }
   current_ = 1 - current_;
-  status_.converged = energy <= energy_floor_ || energy_ - energy <= options_.tolerance * std::abs(energy_);
+  status_.settled = !fell_back && options_.settle > 0.0 && status_.largest_step <= options_.settle;
+  status_.converged = !fell_back && (energy <= energy_floor_ || energy_ - energy <= options_.tolerance * std::abs(energy_) || status_.settled);
   energy_ = energy;
   timings_.rotations_ms = milliseconds_since(start);
 }

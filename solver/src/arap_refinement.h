@@ -62,18 +62,17 @@ class ArapRefinement {
   // never undoes one. None: no limit.
   void set_turn_axis(const std::optional<Eigen::Vector3d>& axis) { turn_axis_ = axis; }
 
-  // A new edit. `positions` holds the paper's result, its constrained rows the targets. The first
-  // edit starts from the paper's result with rotations fitted to it. A later one starts warm: from
-  // the last edit's rotations, turned by the change of the paper's field rotation at each vertex,
-  // so that a drag continues from its refined shape while a jump or a twist of several turns still
-  // turns as the paper says; if that first iteration ends above the paper's result, it restarts
-  // from there (a reset to the rest shape, say).
-  void begin(const Eigen::MatrixXd& positions);
+  // A new edit. `positions` holds the paper's result, its constrained rows the targets. The paper's
+  // rotations are fitted to it from the field's, whatever came before, so the unrefined energy is
+  // the pose's own. From the paper's result, the iterations start there. From the last edit, they
+  // start from its refined rotations, turned by the change of the paper's field rotation at each
+  // vertex, so that a drag continues from its refined shape while a jump or a twist of several
+  // turns still turns as the paper says; if that first iteration ends above the paper's result,
+  // the run goes on from the paper's result instead (a step back towards the rest shape, say).
+  void begin(const Eigen::MatrixXd& positions, RefinementStart start);
   // An edit that moves nothing (every handle at rest): the paper's result is the rest shape and
-  // the energy zero; nothing to iterate. The rotations stay for the next edit's warm start.
+  // the energy zero; nothing to iterate. The rotations stay for a later start from the last edit.
   void begin_at_rest();
-  // The next begin() is a first edit's: no rotations carry over.
-  void restart();
 
   // One iteration as four stages, in this order.
   void assemble();  // right-hand side from the current rotations
@@ -100,6 +99,8 @@ class ArapRefinement {
   // Fits rotations to the current positions, starting from `start`; returns E.
   double fit_rotations(const std::vector<Eigen::Matrix3d>& start, std::vector<Eigen::Matrix3d>& rotations, int steps);
   double triangle_energy() const;
+  // The largest vertex move of the plain step rhs_ (G(x)) from the free rows of positions_ (x).
+  double largest_plain_step() const;
 
   const DirichletSystem& system_;
   RefinementOptions options_;
@@ -134,8 +135,9 @@ class ArapRefinement {
   std::vector<double> paper_;
   std::vector<Eigen::Matrix3d> paper_rotation_;
   std::optional<Eigen::Vector3d> turn_axis_;
-  bool warm_ = false;        // an edit came before: start from its rotations
-  bool consistent_ = false;  // the rotations were fitted to positions_ (not carried over)
+  bool has_refined_ = false;  // an edit has begun: its rotations can start the next
+  bool consistent_ = false;   // the rotations were fitted to positions_ (not carried over)
+  double diagonal_ = 0.0;     // of the rest shape's bounding box (the settle test's unit)
 
   std::vector<double> positions_;  // compact vertices × 3
   std::vector<double> constant_;   // free rows × 3: −Σ L_fc x_c

@@ -324,13 +324,13 @@ std::vector<std::string> Deformer::warnings() const {
   return lines;
 }
 
-void Deformer::deform(std::span<const HandleTransform> transforms, Eigen::MatrixXd& positions) {
+void Deformer::deform(std::span<const HandleTransform> transforms, Eigen::MatrixXd& positions, RefinementStart start) {
   if (transforms.size() != handle_count()) {
     throw std::invalid_argument("deform: " + std::to_string(transforms.size()) + " transforms for " +
                                 std::to_string(handle_count()) + " handles");
   }
   const trace::Scope traced("update", "update");
-  const auto start = Clock::now();
+  const auto began = Clock::now();
   positions.resize(rest_.vertex_count(), 3);
   last_update_ = UpdateTimings{};
   graph_->transforms = transforms;
@@ -341,7 +341,8 @@ void Deformer::deform(std::span<const HandleTransform> transforms, Eigen::Matrix
   });
   std::copy(transforms.begin(), transforms.end(), edited_.begin());
   refinement_pending_ = true;
-  last_update_.total_ms = milliseconds_since(start);
+  refinement_start_ = start;
+  last_update_.total_ms = milliseconds_since(began);
 }
 
 void Deformer::begin_refinement(const Eigen::MatrixXd& positions) {
@@ -362,7 +363,7 @@ void Deformer::begin_refinement(const Eigen::MatrixXd& positions) {
       const bool same_field = field_of_ && field_of_->axis == handle.axis && field_of_->angle == handle.angle && field_of_->scale == handle.scale;
       field_of_ = handle;
       if (same_field) {
-        refinement.begin(positions);
+        refinement.begin(positions, refinement_start_);
         return;
       }
       tbb::parallel_for(tbb::blocked_range<std::size_t>(0, vertices.size(), kRowGrain), [&](const auto& range) {
@@ -391,7 +392,7 @@ void Deformer::begin_refinement(const Eigen::MatrixXd& positions) {
         }
       });
     }
-    refinement.begin(positions);
+    refinement.begin(positions, refinement_start_);
   });
 }
 
@@ -418,12 +419,6 @@ int Deformer::refine(Eigen::MatrixXd& positions, int max_iterations) {
     ++iterations;
   }
   return iterations;
-}
-
-void Deformer::restart_refinement() {
-  if (refinement_) refinement_->restart();
-  field_of_.reset();
-  refinement_pending_ = true;
 }
 
 const RefinementStatus& Deformer::refinement_status() const {

@@ -123,20 +123,19 @@ class Deformer {
 
   // Deformed positions (n×3, resized if needed) for one transform per handle: one handle blends
   // its rotation and scale along h (§5), several interpolate q0..q3 and s harmonically (§7).
-  // Not reentrant. Allocation-free once `positions` has the right size.
-  void deform(std::span<const HandleTransform> transforms, Eigen::MatrixXd& positions);
+  // Not reentrant. Allocation-free once `positions` has the right size. Begins a new edit for
+  // refine(), whose iterations start where `start` says (refinement.h): by default from the
+  // paper's result, so that the refined shape of a pose is the same bits whatever came before.
+  void deform(std::span<const HandleTransform> transforms, Eigen::MatrixXd& positions,
+              RefinementStart start = RefinementStart::FromPapersResult);
 
   // As-rigid-as-possible refinement (refinement.h) of the last deform(): runs up to
-  // `max_iterations` local/global iterations, fewer when the energy has converged, writing the free
-  // rows of `positions` (the buffer deform() filled) after each. Successive calls continue; a new
-  // deform() starts a new edit, warm: from the refined rotations of the last, turned by the change
-  // of the paper's field. Returns the iterations run. Allocation-free after the first call.
+  // `max_iterations` local/global iterations, fewer once they have converged (RefinementOptions),
+  // writing the free rows of `positions` (the buffer deform() filled) after each. Successive calls
+  // continue the same edit. Returns the iterations run. Allocation-free after the first call.
   int refine(Eigen::MatrixXd& positions, int max_iterations);
   // ... one iteration at a time, for a caller that shows each (false once converged).
   bool refine_once(Eigen::MatrixXd& positions) { return refine(positions, 1) == 1 && !refinement_status().converged; }
-  // The next refine() starts cold, from the paper's result, as a fresh Deformer's would: the same
-  // bits as any other cold start of the same edit.
-  void restart_refinement();
   const RefinementStatus& refinement_status() const;
   const RefinementTimings& refinement_timings() const;
   void set_refinement_options(const RefinementOptions& options);
@@ -172,6 +171,7 @@ class Deformer {
   std::unique_ptr<detail::ArapRefinement> refinement_;
   std::vector<HandleTransform> edited_;  // the transforms of the last deform()
   bool refinement_pending_ = false;      // deform() ran since the refinement last began an edit
+  RefinementStart refinement_start_ = RefinementStart::FromPapersResult;  // of the last deform()
   std::optional<HandleTransform> field_of_;  // one handle: the transform the refinement's field rotations are of
 };
 
