@@ -57,6 +57,7 @@ EditStage Document::current_stage() const {
     if (!handle_vertices[h].empty()) stage.handles.push_back({std::move(handle_vertices[h]), handles_[h].transform});
   }
   stage.refine = refine_;
+  stage.refine_settle = refine_settle_;
   return stage;
 }
 
@@ -87,6 +88,14 @@ void Document::load_stage(const EditStage& stage) {
     handle_sizes_.push_back(stage.handles[h].vertices.size());
   }
   set_refine(stage.refine);
+  if (stage.refine_settle != refine_settle_) {
+    // A session that stops elsewhere (written by `edit`, or before the settle test): its stage
+    // is refined as it says, by a deformer set up for that.
+    refine_settle_ = stage.refine_settle;
+    stop_pipeline();
+    deformer_.reset();
+    deformer_constraints_ = {};
+  }
   active_handle_ = std::min(active_handle_, std::max(0, static_cast<int>(handles_.size()) - 1));
 }
 
@@ -319,6 +328,7 @@ void Document::start_build() {
   Build* build = build_.get();
   DeformerOptions options = options_;
   options.prepare_refinement = refine_;  // set up with the rest, off the frame loop
+  options.refinement = current_stage().refinement_options();
   build->task.start("set-up", [build, options] {
     return std::make_unique<Deformer>(*build->rest, build->constraints, build->operators, options, [build](std::string_view stage) {
       std::lock_guard lock(build->mutex);
@@ -362,6 +372,7 @@ void Document::install_build() {
       std::lock_guard lock(refinement_mutex_);
       refinement_ = result.refinement;
       refinement_ms_ = result.refinement.iterations > 0 ? result.update_ms : 0.0;
+      refinement_request_ = base + result.request;
       constexpr std::size_t kKept = 512;
       if (result.refinement.iterations == 0) {
         if (update_timings_.size() < kKept) update_timings_.push_back(deformer_->last_update());
@@ -410,7 +421,19 @@ std::uint64_t Document::request_update() {
   const EditStage stage = current_stage();
   if (!same_constraints(deformer_constraints_, stage.constraints()) && !previous_selection_answers(stage)) return 0;
   last_request_ = request_base_ + pipeline_->submit(stage.transforms());
+  submitted_ = stage;
   return last_request_;
+}
+
+bool Document::settled() const {
+  if (build_) return false;
+  const EditStage stage = current_stage();
+  if (stage.handles.empty() || !deformer_) return true;  // the rest shape, or a failure: nothing to wait for
+  if (!pipeline_ || !submitted_ || !(*submitted_ == stage)) return false;
+  if (last_published_.load() != last_request_) return false;
+  if (!refine_) return true;
+  const RefinementView view = refinement();
+  return view.request == last_request_ && view.status.converged;
 }
 
 void Document::wait_until_ready() {
@@ -426,13 +449,10 @@ Eigen::MatrixXd Document::result() {
   const EditStage stage = current_stage();
   if (stage.handles.empty()) return rest_->positions;
   if (!deformer_) throw SolveError(failure_.empty() ? "the deformation could not be set up" : failure_);
-  // The pipeline pauses its refinement (what it shows came from a warm start) and the stage's
-  // result is computed as `edit --session` does; the refinement then resumes from there.
-  pipeline_->set_refinement(false);
-  pipeline_->wait_idle();
-  Eigen::MatrixXd positions = stage_result(*deformer_, stage);
-  pipeline_->set_refinement(refine_);
-  return positions;
+  // The pipeline's answer to these poses: each of its edits starts from the paper's result and
+  // stops where the stage's refinement_options() say, as stage_result() does.
+  if (!submitted_ || !(*submitted_ == stage)) request_update();
+  return pipeline_->settled_positions();
 }
 
 void Document::set_refinement_delay(std::chrono::milliseconds delay) {
@@ -462,7 +482,7 @@ std::vector<RefinementTimings> Document::take_refinement_timings() {
 
 Document::RefinementView Document::refinement() const {
   std::lock_guard lock(refinement_mutex_);
-  return {refinement_, refinement_ms_};
+  return {refinement_, refinement_ms_, refinement_request_};
 }
 
 }  // namespace hdeform::cli

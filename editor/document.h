@@ -10,6 +10,7 @@
 #include <functional>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <span>
 #include <string>
 #include <thread>
@@ -115,13 +116,20 @@ class Document {
   void set_refine(bool on);
   // How long the input must rest before refinement runs (UpdatePipeline::set_refinement_delay).
   void set_refinement_delay(std::chrono::milliseconds delay);
+  // Where its refinement stops (EditStage::refine_settle): the editor's kEditorSettle for a new
+  // session, the session's own value for one opened.
+  double refine_settle() const { return refine_settle_; }
   // The refinement of the latest publication: its iterations (0: the paper's update alone),
-  // energies and whether it converged, and the last iteration's time.
+  // energies and whether it converged, the last iteration's time, and which request it answers.
   struct RefinementView {
     RefinementStatus status;
     double iteration_ms = 0.0;
+    std::uint64_t request = 0;
   };
   RefinementView refinement() const;
+  // Whether the newest poses have their final shape on screen: solved and, with refinement on,
+  // refined until its stop. Then result() returns at once.
+  bool settled() const;
   // The stage timings of the updates and refinement iterations published since the last call
   // (for the profiler panel; at most the last few hundred are kept).
   std::vector<UpdateTimings> take_update_timings();
@@ -135,8 +143,9 @@ class Document {
   // (same rest shape and number of handles) still answers the drag.
   bool drags_previous_selection() const;
   std::uint64_t last_published_request() const { return last_published_.load(); }
-  // The positions for the current poses, exactly as `hdeform edit --session` computes them
-  // (waits for a pending rebuild and the update in flight).
+  // The positions for the current poses: the pipeline's final answer to them, the shape the
+  // screen shows once settled, which is exactly what `hdeform edit --session` computes (waits for
+  // a pending rebuild, the update in flight and the refinement until its stop).
   Eigen::MatrixXd result();
   // Blocks until no rebuild is running (for tests and saving).
   void wait_until_ready();
@@ -190,10 +199,13 @@ class Document {
   std::string failure_;
   std::atomic<double> last_update_ms_{0.0};
   bool refine_ = false;
+  double refine_settle_ = 0.0;
+  std::optional<EditStage> submitted_;  // the stage whose poses the pipeline was last asked for
   std::chrono::milliseconds refinement_delay_{0};
   mutable std::mutex refinement_mutex_;
   RefinementStatus refinement_;
   double refinement_ms_ = 0.0;
+  std::uint64_t refinement_request_ = 0;  // the request the refinement view answers
   std::vector<UpdateTimings> update_timings_;          // with refinement_mutex_
   std::vector<RefinementTimings> refinement_timings_;  // with refinement_mutex_
   std::atomic<std::uint64_t> last_published_{0};

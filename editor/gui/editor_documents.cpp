@@ -138,6 +138,7 @@ void EditorApp::start_requested_document() {
     }
     Session session;
     session.current.refine = options.refine;
+    session.current.refine_settle = kEditorSettle;
     session.mesh = options.mesh.empty() ? "shape:cactus" : options.mesh;
     if (!names_builtin_shape(session.mesh)) session.mesh = std::filesystem::absolute(session.mesh).lexically_normal().string();
     LoadedMesh loaded = load_mesh(MeshSource::from_name(session.mesh));
@@ -289,6 +290,7 @@ void EditorApp::open_path(const std::string& path) {
   start_load(path, [path, refine = options_.refine] {
     Session session;
     session.current.refine = refine;
+    session.current.refine_settle = kEditorSettle;
     session.mesh = names_builtin_shape(path) ? path : std::filesystem::absolute(path).lexically_normal().string();
     return std::pair{session, load_session_mesh(session)};
   });

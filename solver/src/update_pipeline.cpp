@@ -124,6 +124,13 @@ void UpdatePipeline::wait_idle() {
   idle_.wait(lock, [this] { return !busy_ && !has_work(); });
 }
 
+Eigen::MatrixXd UpdatePipeline::settled_positions() {
+  std::unique_lock lock(mutex_);
+  idle_.wait(lock, [this] { return !busy_ && !has_work(); });
+  // The thread only takes work under the lock: while it is held, positions_ stays as published.
+  return positions_;
+}
+
 void UpdatePipeline::set_refinement(bool on) {
   {
     std::lock_guard lock(mutex_);

@@ -48,6 +48,8 @@ class UpdatePipeline {
   std::uint64_t submit(std::span<const HandleTransform> transforms);
   // Blocks until no update is waiting or running and the refinement, when on, has converged.
   void wait_idle();
+  // ... and then the positions last published: the final answer to the last request.
+  Eigen::MatrixXd settled_positions();
   // Refinement after each update (off at first). Turning it on refines the last result.
   void set_refinement(bool on);
   bool refinement() const;
