@@ -373,6 +373,7 @@ void Document::install_build() {
       refinement_ = result.refinement;
       refinement_ms_ = result.refinement.iterations > 0 ? result.update_ms : 0.0;
       refinement_request_ = base + result.request;
+      refinement_digest_ = result.refinement.converged ? positions_digest(result.positions) : std::string();
       constexpr std::size_t kKept = 512;
       if (result.refinement.iterations == 0) {
         if (update_timings_.size() < kKept) update_timings_.push_back(deformer_->last_update());
@@ -482,7 +483,7 @@ std::vector<RefinementTimings> Document::take_refinement_timings() {
 
 Document::RefinementView Document::refinement() const {
   std::lock_guard lock(refinement_mutex_);
-  return {refinement_, refinement_ms_, refinement_request_};
+  return {refinement_, refinement_ms_, refinement_request_, refinement_digest_};
 }
 
 }  // namespace hdeform::cli

@@ -125,6 +125,7 @@ class Document {
     RefinementStatus status;
     double iteration_ms = 0.0;
     std::uint64_t request = 0;
+    std::string digest;  // positions_digest of the positions, once converged
   };
   RefinementView refinement() const;
   // Whether the newest poses have their final shape on screen: solved and, with refinement on,
@@ -206,6 +207,7 @@ class Document {
   RefinementStatus refinement_;
   double refinement_ms_ = 0.0;
   std::uint64_t refinement_request_ = 0;  // the request the refinement view answers
+  std::string refinement_digest_;
   std::vector<UpdateTimings> update_timings_;          // with refinement_mutex_
   std::vector<RefinementTimings> refinement_timings_;  // with refinement_mutex_
   std::atomic<std::uint64_t> last_published_{0};

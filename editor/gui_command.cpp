@@ -19,7 +19,9 @@ class GuiCommand final : public BatchCommand {
     command->add_option("--transform", options_.transforms, "Starting transform of the matching --handle (as for edit)");
     command->add_option("--roi", options_.roi, "Region of interest: 0-based indices");
     command->add_option("--output", options_.output, "Where Ctrl+S saves the result (OBJ or PLY; the session goes beside it)");
-    command->add_option("--up", options_.up, "Up axis of the mesh: z or y")->capture_default_str();
+    command->add_option("--up", options_.up,
+                        "Up axis of the meshes: z or y (default: z in edit mode; in transfer mode each mesh's own, guessed from the "
+                        "axis it stands on)");
     command->add_option("--size", options_.size, "Window size WIDTHxHEIGHT")->capture_default_str();
     command->add_option("--samples", options_.samples, "Multisampling (default: 4 on a GPU, 1 on a CPU device)");
     command->add_option("--device", options_.device, "Vulkan device: gpu, cpu, an index or part of a name");
@@ -56,7 +58,10 @@ class GuiCommand final : public BatchCommand {
     if (options_.restore != "ask" && options_.restore != "yes" && options_.restore != "no") throw UsageError("--restore must be ask, yes or no");
     if (!options_.session.empty() && !options_.mesh.empty()) throw UsageError("give a mesh or --session, not both");
     if (options_.transforms.size() > options_.handles.size()) throw UsageError("more --transform than --handle");
-    if (options_.up != "z" && options_.up != "y") throw UsageError("--up must be z or y");
+    if (!options_.up.empty() && options_.up != "z" && options_.up != "y") throw UsageError("--up must be z or y");
+    if (options_.mesh.empty() && options_.session.empty() && (!options_.fixed.empty() || !options_.handles.empty() || !options_.roi.empty())) {
+      throw UsageError("--fixed, --handle and --roi number the vertices of a mesh: give the mesh too (the built-in cactus is shape:cactus)");
+    }
     if (options_.transfer.source_column != 1 && options_.transfer.source_column != 2) throw UsageError("--source-column must be 1 or 2");
     if (options_.transfer.source_rest.empty() != options_.transfer.target.empty()) {
       throw UsageError("transfer mode needs both --transfer-source and --transfer-target");

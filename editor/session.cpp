@@ -201,16 +201,26 @@ json to_json(const Session& session) {
           {"active_handle", session.active_handle}};
 }
 
-std::string session_digest(const Session& session) {
-  // FNV-1a, 64 bits: identifies a state among a few hundred, not a defence against forgery.
+namespace {
+
+// FNV-1a, 64 bits: identifies a state among a few hundred, not a defence against forgery.
+std::string fnv1a_digest(std::string_view bytes) {
   std::uint64_t hash = 0xcbf29ce484222325ull;
-  for (const char c : to_json(session).dump()) {
+  for (const char c : bytes) {
     hash ^= static_cast<unsigned char>(c);
     hash *= 0x100000001b3ull;
   }
   char text[17];
   std::snprintf(text, sizeof text, "%016llx", static_cast<unsigned long long>(hash));
   return text;
+}
+
+}  // namespace
+
+std::string session_digest(const Session& session) { return fnv1a_digest(to_json(session).dump()); }
+
+std::string positions_digest(const Eigen::MatrixXd& positions) {
+  return fnv1a_digest({reinterpret_cast<const char*>(positions.data()), static_cast<std::size_t>(positions.size()) * sizeof(double)});
 }
 
 std::string SessionSource::where(const std::string& pointer) const {

@@ -54,6 +54,8 @@ nlohmann::json to_json(const Session& session);
 // the digest of every state it puts in the recovery file, so that a test can tell whether a
 // restored state is one the user had.
 std::string session_digest(const Session& session);
+// ... and of positions, bit for bit: the editor names the shape it shows and the one it saves.
+std::string positions_digest(const Eigen::MatrixXd& positions);
 
 // Where a session came from, to name the line of a problem found after parsing.
 struct SessionSource {

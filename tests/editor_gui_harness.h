@@ -61,22 +61,24 @@ inline void xdotool(const std::string& arguments) {
   ASSERT_EQ(status, 0) << "xdotool " << arguments << ": " << out;
 }
 
-// The editor as a child process; its stdout's JSON lines are collected as they come.
+// The editor as a child process; its stdout's JSON lines are collected as they come. `prefix`
+// runs it through another program (setpriv, to run it as another user).
 class Editor {
  public:
-  explicit Editor(const std::vector<std::string>& arguments) {
+  explicit Editor(const std::vector<std::string>& arguments, const std::vector<std::string>& prefix = {}) {
     int out[2];
     if (pipe(out) != 0) throw std::runtime_error("pipe failed");
     posix_spawn_file_actions_t actions;
     posix_spawn_file_actions_init(&actions);
     posix_spawn_file_actions_adddup2(&actions, out[1], STDOUT_FILENO);
     posix_spawn_file_actions_addclose(&actions, out[0]);
-    std::vector<std::string> argv_storage{HDEFORM_EXECUTABLE, "gui"};
+    std::vector<std::string> argv_storage = prefix;
+    argv_storage.insert(argv_storage.end(), {HDEFORM_EXECUTABLE, "gui"});
     argv_storage.insert(argv_storage.end(), arguments.begin(), arguments.end());
     std::vector<char*> argv;
     for (auto& argument : argv_storage) argv.push_back(argument.data());
     argv.push_back(nullptr);
-    if (posix_spawn(&pid_, HDEFORM_EXECUTABLE, &actions, nullptr, argv.data(), environ) != 0) throw std::runtime_error("spawn failed");
+    if (posix_spawnp(&pid_, argv_storage.front().c_str(), &actions, nullptr, argv.data(), environ) != 0) throw std::runtime_error("spawn failed");
     posix_spawn_file_actions_destroy(&actions);
     close(out[1]);
     reader_ = std::thread([this, fd = out[0]] {
@@ -135,6 +137,15 @@ class Editor {
   std::size_t event_count() {
     std::lock_guard lock(mutex_);
     return events_.size();
+  }
+  // Every event named `name` so far, after the first `after`.
+  std::vector<json> events_named(const std::string& name, std::size_t after = 0) {
+    std::lock_guard lock(mutex_);
+    std::vector<json> found;
+    for (std::size_t k = after; k < events_.size(); ++k) {
+      if (events_[k].value("event", "") == name) found.push_back(events_[k]);
+    }
+    return found;
   }
   // The newest solver state reported, once none has arrived for `quiet` (the deformer is rebuilt
   // while a selection changes; the last rebuild decides).
@@ -226,7 +237,9 @@ class EditorGui : public ::testing::Test {
     shape = make_shape(ShapeKind::Cactus, 24);
     write_obj(dir.file("cactus.obj"), shape.mesh);
     rest = read_obj(dir.file("cactus.obj"));  // as the editor reads it
-    view.camera = engine::Camera::three_quarter_front(engine::Bounds::of(rest.positions), engine::UpAxis::Z, static_cast<float>(kWidth) / kHeight);
+    // The editor frames the mesh in the window right of its panel.
+    view.camera = engine::Camera::three_quarter_front(engine::Bounds::of(rest.positions), engine::UpAxis::Z, static_cast<float>(kWidth) / kHeight,
+                                                      kPanelWidth / static_cast<float>(kWidth));
   }
 
   std::vector<std::string> editor_arguments(const std::string& restore) const {
@@ -316,12 +329,13 @@ class EditorGui : public ::testing::Test {
     return editor.wait_for("saved", 60s, before);
   }
 
-  // Ctrl+Q with unsaved changes asks first; Enter confirms.
+  // Ctrl+Q with unsaved changes asks first; D discards them.
   void quit_discarding_changes(Editor& editor) {
     const auto before = editor.event_count();
     press("ctrl+q");
-    std::this_thread::sleep_for(300ms);
-    press("Return");
+    const json asked = editor.wait_for("dialog", 30s, before);
+    EXPECT_EQ(asked.value("title", ""), "Unsaved changes");
+    press("d");
     const json exit_event = editor.wait_for("exit", 60s, before);
     EXPECT_EQ(exit_event.value("validation_messages", -1), 0) << "Vulkan validation reported problems (see stderr)";
     EXPECT_EQ(editor.wait_exit(), 0);

@@ -15,7 +15,9 @@
 #include "transfer_state.h"
 #include "hdeform/engine/geometry_exchange.h"
 #include "hdeform/errors.h"
+#include "hdeform/mesh_io.h"
 #include "hdeform/shapes.h"
+#include "hdeform/engine/camera.h"
 #include "marker_editor.h"
 #include "mesh_picker.h"
 #include "selection.h"
@@ -46,6 +48,21 @@ std::optional<std::pair<int, float>> brute_force_pick(const Mesh& mesh, const Ei
     if (inside && (!best || distance < best->second)) best = std::pair{static_cast<int>(t), distance};
   }
   return best;
+}
+
+// The up axis a mesh stands on: the cactus (modelled z-up) and the same cactus turned to stand on
+// y; the shared animals (y-up, as their OBJ files come) and the Buddha (z-up).
+TEST(UpAxis, IsTheAxisTheMeshStandsOn) {
+  Eigen::Matrix3d z_to_y;
+  z_to_y << 1, 0, 0, 0, 0, 1, 0, -1, 0;  // (x, y, z) -> (x, z, -y): what stood on z stands on y
+  const Mesh cactus = make_shape(ShapeKind::Cactus, 24).mesh;
+  EXPECT_EQ(engine::guess_up_axis(cactus.positions), engine::UpAxis::Z);
+  EXPECT_EQ(engine::guess_up_axis(cactus.positions * z_to_y.transpose()), engine::UpAxis::Y);
+  if (test::shared_meshes().empty()) GTEST_SKIP() << "../shared/meshes is absent: the real meshes are not checked";
+  for (const char* name : {"horse/horse-ref.obj", "camel/camel-ref.obj", "cat/cat-ref.obj", "lion/lion-ref.obj", "armadillo/armadillo.obj"}) {
+    EXPECT_EQ(engine::guess_up_axis(read_obj(test::shared_meshes() / name).positions), engine::UpAxis::Y) << name;
+  }
+  EXPECT_EQ(engine::guess_up_axis(read_obj(test::shared_meshes() / "buddha/buddha-51k.obj").positions), engine::UpAxis::Z);
 }
 
 TEST(MeshPicker, FindsTheSameNearestTriangleAsTestingEveryOne) {

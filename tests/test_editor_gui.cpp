@@ -67,6 +67,7 @@ TEST_F(EditorGui, PaintDragAndSaveGiveTheBatchReplayAndTheScreenShowsTheOffscree
   shot.width = kWidth;
   shot.height = kHeight;
   shot.samples = 1;  // the editor's on a CPU device
+  shot.camera = view.camera;  // framed right of the panel, as the editor frames it
   const auto context = test::validated_context();
   const engine::Pixels offscreen = engine::render_offscreen(*context, scene, shot);
   const engine::Pixels window_picture = engine::read_png(screenshot["path"].get<std::string>());

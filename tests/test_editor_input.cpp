@@ -425,10 +425,16 @@ TEST(HandleDrag, EachToolAndConstraintMovesThePoseAsItSays) {
   moved = drag_pose(rest, tools, GizmoPart::RingZ, step_between(on_ring, turned_on_ring, *orthographic(turned_on_ring) - *orthographic(on_ring)));
   EXPECT_NEAR(moved.angle, 0.3, 1e-4);
   EXPECT_NEAR(moved.axis.z(), 1.0, 1e-9);
-  // Scale: up the screen grows it.
+  // Scale: up or right the screen grows it, down or left shrinks it; a diagonal adds both.
   tools.tool = Tool::Scale;
   moved = drag_pose(rest, tools, GizmoPart::None, step_between(centre, centre, Eigen::Vector2f(0.0f, -100.0f)));
   EXPECT_NEAR(moved.scale, std::exp(1.0), 1e-9);
+  moved = drag_pose(rest, tools, GizmoPart::None, step_between(centre, centre, Eigen::Vector2f(100.0f, 0.0f)));
+  EXPECT_NEAR(moved.scale, std::exp(1.0), 1e-9) << "a horizontal drag scales too";
+  moved = drag_pose(rest, tools, GizmoPart::None, step_between(centre, centre, Eigen::Vector2f(-50.0f, 0.0f)));
+  EXPECT_NEAR(moved.scale, std::exp(-0.5), 1e-9);
+  moved = drag_pose(rest, tools, GizmoPart::None, step_between(centre, centre, Eigen::Vector2f(30.0f, -20.0f)));
+  EXPECT_NEAR(moved.scale, std::exp(0.5), 1e-9);
   // Twist about x: 100 pixels right is one radian.
   tools.tool = Tool::Twist;
   tools.twist_axis = TwistAxis::X;

@@ -182,7 +182,16 @@ TEST_F(EditorGui, TransferModeMarkersSurviveKillNine) {
   const json restored = editor.wait_for("transfer restored");
   EXPECT_EQ(restored.value("markers", -1), 1);
   ASSERT_NO_FATAL_FAILURE(find_window());
-  quit(editor);
+  // The restored pair was never saved: Quit asks, and the recovery file stays until the answer.
+  const auto before_quit = editor.event_count();
+  press("ctrl+q");
+  const json asked = editor.wait_for("dialog", 30s, before_quit);
+  EXPECT_EQ(asked.value("markers", ""), "1 marker pair (never saved)");
+  EXPECT_TRUE(std::filesystem::exists(dir.file("recovery-transfer.json")));
+  press("Escape");
+  EXPECT_EQ(editor.wait_for("dialog closed", 30s, before_quit).value("choice", ""), "cancel");
+  EXPECT_TRUE(std::filesystem::exists(dir.file("recovery-transfer.json")));
+  quit_discarding_changes(editor);
   EXPECT_FALSE(std::filesystem::exists(dir.file("recovery-transfer.json"))) << "a clean exit removes it";
 }
 

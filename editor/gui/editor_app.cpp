@@ -164,7 +164,7 @@ void EditorApp::create_renderer() {
   if (!single_threaded_vulkan()) slots_->enable_completion_times();
   latch_solves_ = options_.pacing == "latch" || (options_.pacing == "auto" && context_->is_cpu_device());
   renderer_ = std::make_unique<engine::MeshRenderer>(*context_, target_->render_pass(), target_->format(), slots_->count());
-  transfer_ = std::make_unique<TransferView>(*context_, target_->render_pass(), target_->format(), slots_->count(), up_axis());
+  transfer_ = std::make_unique<TransferView>(*context_, target_->render_pass(), target_->format(), slots_->count(), chosen_up_axis());
 
   IMGUI_CHECKVERSION();
   ImGui::CreateContext();
@@ -315,14 +315,21 @@ void EditorApp::step() {
     // A refinement that settles is announced once: scripts and tests wait for it before they
     // take a picture of the result (until then each iteration replaces the last on screen).
     if (document_->refine()) {
-      const auto status = document_->refinement().status;
+      const auto view = document_->refinement();
+      const auto& status = view.status;
       if (status.converged && !refinement_settled_) {
-        print_json_line({{"event", "refined"}, {"iterations", status.iterations}, {"energy", status.energy}});
+        print_json_line({{"event", "refined"},
+                         {"iterations", status.iterations},
+                         {"energy", status.energy},
+                         {"unrefined_energy", status.unrefined_energy},
+                         {"settled", status.settled},
+                         {"positions_digest", view.digest}});
       }
       refinement_settled_ = status.converged;
     } else {
       refinement_settled_ = false;
     }
+    finish_pending_save();
     if (document_->solver_state() == Document::SolverState::Building && build_started_ == Clock::time_point{}) build_started_ = Clock::now();
     if (document_->solver_state() != Document::SolverState::Building) build_started_ = {};
   }
@@ -399,6 +406,7 @@ void EditorApp::render(ImDrawData* draw_data) {
     transfer_->prepare(slot.index, extent, kPanelWidth * ImGui::GetIO().DisplayFramebufferScale.x);
   } else {
     if (view_moving()) motion_detail_.note_motion(now);
+    camera_.covered_left = panel_fraction();  // the window may have been resized
     engine::RenderSettings frame_settings = settings_;
     frame_settings.proxy = motion_detail_.proxy(now);
     renderer_->prepare(slot.index, camera_, frame_settings, extent);

@@ -19,7 +19,7 @@ struct EditorOptions {
   std::vector<std::string> transforms;
   std::string roi;
   std::string output;   // where Ctrl+S writes the result (OBJ) and, beside it, the session
-  std::string up = "z";
+  std::string up;  // z or y for every mesh; none: z in edit mode, each mesh's guessed in transfer mode
   std::string size = "1280x800";
   int samples = 0;      // 0: 4 on a GPU, 1 on a CPU device
   std::string device;

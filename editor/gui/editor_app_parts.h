@@ -25,6 +25,7 @@
 #include <span>
 #include <sstream>
 #include <thread>
+#include <tuple>
 #include "cli_support.h"
 #include "document.h"
 #include "background_task.h"
@@ -181,10 +182,11 @@ class EditorApp {
   template <class Load>
   void start_load(const std::string& what, Load load) {
     load_.start("Loading " + what, [load] {
-      auto [session, mesh] = load();
+      auto files = load();  // (session, mesh) or (session, mesh, a problem with the lists given beside the mesh)
       Loaded loaded;
-      loaded.session = std::move(session);
-      loaded.mesh = std::move(mesh);
+      loaded.session = std::move(std::get<0>(files));
+      loaded.mesh = std::move(std::get<1>(files));
+      if constexpr (std::tuple_size_v<decltype(files)> == 3) loaded.problem = std::move(std::get<2>(files));
       // Replaying applied stages and the checks run here, off the frame loop; the publisher is
       // attached when the document is installed.
       loaded.document = std::make_unique<Document>(loaded.session, loaded.mesh, DeformerOptions{}, Document::Publish{});
@@ -196,15 +198,23 @@ class EditorApp {
     Session session;
     Mesh mesh;
     std::unique_ptr<Document> document;
+    std::string problem;  // a list given with the mesh that could not be used (the mesh opened without it)
   };
 
   void finish_load();
   void install(Loaded loaded_document);
 
-  engine::UpAxis up_axis() const { return options_.up == "y" ? engine::UpAxis::Y : engine::UpAxis::Z; }
+  // --up, when given (transfer mode guesses each mesh's without it).
+  std::optional<engine::UpAxis> chosen_up_axis() const;
+  engine::UpAxis up_axis() const { return up_axis_; }
 
+  // The share of the window's width the side panel covers (the view is centred in the rest).
+  float panel_fraction() const;
   void adjust_camera(bool reset_angles);
+  // Opens a mesh or a session (Ctrl+O, a drop, a recent file), asking first when that would
+  // discard unsaved edits.
   void open_path(const std::string& path);
+  void open_now(const std::string& path);
 
   // ---- the frame --------------------------------------------------------------------------------
 
@@ -273,6 +283,8 @@ class EditorApp {
   // A file that could not be opened (from the command line, Open, a drop or a session): the
   // reason in full, in the window, with the previous document (if any) still open behind it.
   void draw_open_failure();
+  // A save that failed: the reason, and Save as.
+  void draw_save_failure();
 
   // ---- actions ------------------------------------------------------------------------------------
 
@@ -309,7 +321,26 @@ class EditorApp {
   std::uint64_t post_request(Clock::time_point event_time) { return post_request(std::span(&event_time, 1)); }
 
   void post_recovery();
-  bool save(const std::string& path);
+  // Saves the result for the current poses to `path` (and its session beside it) once the shape
+  // on screen has settled: at once when it has, else when the refinement stops (the status line
+  // says so meanwhile). A failure opens the "Could not save" dialog.
+  void save(const std::string& path);
+  void finish_pending_save();
+  bool write_save(const std::string& path);
+  // Where Save writes unless --output or Save as said otherwise: the folder of the last save, else
+  // the working folder; never silently beside the input, which may be read-only or shared.
+  std::string default_output_path() const;
+
+  // Actions that would discard unsaved work (the edits, transfer mode's markers) ask first.
+  struct PendingAction {
+    enum class Kind { Quit, Open } kind;
+    std::string path;  // Open: the mesh or session
+    std::string describe() const;
+  };
+  UnsavedWork unsaved_work() const;
+  void ask_or_run(const PendingAction& action);
+  void run_action(const PendingAction& action);
+  void answer_unsaved(UnsavedChoice choice);
 
   // The state goes to the recovery file, synchronously, and stays there for the next start.
   void quit_on_signal(int signal);
@@ -324,6 +355,9 @@ class EditorApp {
   // Whether `key` was pressed since the last frame with exactly the modifiers `mods` (of Ctrl,
   // Shift and Alt).
   bool pressed(int key, int mods = 0) const;
+  DialogKeys dialog_keys() const {
+    return {pressed(GLFW_KEY_ENTER) || pressed(GLFW_KEY_KP_ENTER), pressed(GLFW_KEY_ESCAPE), pressed(GLFW_KEY_D)};
+  }
   Eigen::ParametrizedLine<float, 3> cursor_ray(const ImVec2& cursor) const;
 
   // The geometry on screen (the renderer's newest snapshot); the picker follows it.
@@ -395,6 +429,7 @@ class EditorApp {
   Clock::time_point build_started_{};
 
   engine::Camera camera_;
+  engine::UpAxis up_axis_ = engine::UpAxis::Z;
   engine::RenderSettings settings_;
   std::string mesh_name_;
   std::string output_path_;
@@ -432,7 +467,11 @@ class EditorApp {
   std::string after_open_note_;                // said in the status line once the next document opens
   bool open_dialog_ = false;
   bool save_dialog_ = false;
-  bool quit_dialog_ = false;
+  std::optional<PendingAction> asked_;       // the unsaved-changes question is open for it
+  std::optional<PendingAction> after_save_;  // runs once the save it waits for is written
+  std::optional<std::string> pending_save_;  // a save waiting for the shape to settle
+  std::string save_failure_;                 // shown in the "Could not save" dialog until dismissed
+  std::filesystem::path save_folder_;        // of the last save ("": none yet)
   bool quit_ = false;
   int exit_code_ = 0;
   std::array<float, 4> announced_pose_fields_{};

@@ -134,7 +134,7 @@ void EditorApp::start_requested_document() {
     if (!options.session.empty()) {
       SessionSource source;
       Session session = read_session(options.session, &source);
-      return std::pair{session, load_session_mesh(session, &source)};
+      return std::tuple{session, load_session_mesh(session, &source), std::string()};
     }
     Session session;
     session.current.refine = options.refine;
@@ -148,18 +148,27 @@ void EditorApp::start_requested_document() {
       session.current.fixed = loaded.demo_constraints->fixed;
       session.current.handles.push_back({loaded.demo_constraints->handles[0], pose_for(loaded.demo_constraints->handles[0], mesh, {})});
     }
-    if (!options.fixed.empty()) session.current.fixed = read_vertex_list(options.fixed, mesh.vertex_count(), "the fixed vertices are the sinks");
-    if (!options.roi.empty()) {
-      session.current.region_of_interest = read_vertex_list(options.roi, mesh.vertex_count(), "an empty region of interest leaves nothing to deform");
+    // A list that cannot be used leaves the mesh open without the lists (the user sees why).
+    const EditStage painted = session.current;
+    std::string problem;
+    try {
+      if (!options.fixed.empty()) session.current.fixed = read_vertex_list(options.fixed, mesh.vertex_count(), "the fixed vertices are the sinks");
+      if (!options.roi.empty()) {
+        session.current.region_of_interest = read_vertex_list(options.roi, mesh.vertex_count(), "an empty region of interest leaves nothing to deform");
+      }
+      for (std::size_t h = 0; h < options.handles.size(); ++h) {
+        auto vertices = read_vertex_list(options.handles[h], mesh.vertex_count(), "a handle needs at least one vertex");
+        std::optional<HandleTransform> target;
+        if (h < options.transforms.size()) target = read_handle_transform(options.transforms[h]);
+        session.current.handles.push_back({vertices, pose_for(vertices, mesh, target)});
+      }
+      if (!options.handles.empty()) refuse_contradictions(session.current.constraints(), options.fixed, options.handles);
+    } catch (const InputError& error) {
+      session.current = painted;
+      problem = std::string(error.what()) + ". " + std::filesystem::path(session.mesh).filename().string() +
+                " is open without the vertex lists given with it: paint them, or open it again with lists that fit.";
     }
-    for (std::size_t h = 0; h < options.handles.size(); ++h) {
-      auto vertices = read_vertex_list(options.handles[h], mesh.vertex_count(), "a handle needs at least one vertex");
-      std::optional<HandleTransform> target;
-      if (h < options.transforms.size()) target = read_handle_transform(options.transforms[h]);
-      session.current.handles.push_back({vertices, pose_for(vertices, mesh, target)});
-    }
-    if (!options.handles.empty()) refuse_contradictions(session.current.constraints(), options.fixed, options.handles);
-    return std::pair{session, mesh};
+    return std::tuple{session, mesh, problem};
   });
 }
 
@@ -189,7 +198,13 @@ void EditorApp::finish_load() {
     }
     return;
   }
+  const std::string problem = outcome.result->problem;
   install(std::move(*outcome.result));
+  if (!problem.empty()) {
+    open_failure_ = problem;
+    error_message_ = problem;
+    print_json_line({{"event", "error"}, {"message", problem}});
+  }
 }
 
 void EditorApp::install(Loaded loaded_document) {
@@ -208,6 +223,7 @@ void EditorApp::install(Loaded loaded_document) {
   publisher_->publish(document_->rest().positions, 0);
   mesh_name_ = loaded->session.mesh;
   const auto bounds = engine::Bounds::of(document_->rest().positions);
+  up_axis_ = chosen_up_axis().value_or(engine::UpAxis::Z);
   renderer_->set_mesh(document_->rest().triangles, *exchange_, bounds, up_axis());
   start_proxy();
   picker_.reset();
@@ -215,21 +231,12 @@ void EditorApp::install(Loaded loaded_document) {
   brush_radius_ = 0.03f * bounds.radius() * 2.0f;
   view_dirty_ = true;
   shown_tag_ = 0;
-  if (options_.output.empty() && !names_builtin_shape(mesh_name_)) {
-    std::filesystem::path output(mesh_name_);
-    // The result keeps the input's format where it is one that is written (PLY), else OBJ.
-    const std::string extension = mesh_format_of(output) == MeshFormat::Ply ? output.extension().string() : ".obj";
-    output_path_ = (output.parent_path() / (output.stem().string() + "-edited" + extension)).string();
-  } else if (options_.output.empty()) {
-    output_path_ = (std::filesystem::current_path() / (MeshSource::from_name(mesh_name_).shape_name + "-edited.obj")).string();
-  } else {
-    output_path_ = options_.output;
-  }
+  output_path_ = options_.output.empty() ? default_output_path() : options_.output;
   glfwSetWindowTitle(window_, ("hdeform — " + mesh_name_).c_str());
   if (recent_ && !names_builtin_shape(last_open_request_) && !last_open_request_.empty() && std::filesystem::exists(last_open_request_)) {
     recent_->add(std::filesystem::absolute(last_open_request_).lexically_normal().string());
   }
-  status_ = "Opened " + mesh_name_;
+  status_ = "Opened " + std::filesystem::path(mesh_name_).filename().string();
   if (!after_open_note_.empty()) status_ += ". " + after_open_note_;
   after_open_note_.clear();
   error_message_.clear();
@@ -268,16 +275,95 @@ void EditorApp::finish_proxy() {
   print_json_line({{"event", "proxy"}, {"triangles", outcome.result->rows()}});
 }
 
+float EditorApp::panel_fraction() const {
+  const auto extent = target_->extent();
+  return extent.width > 0 ? std::min(kPanelWidth * ImGui::GetIO().DisplayFramebufferScale.x / static_cast<float>(extent.width), 0.9f) : 0.0f;
+}
+
 void EditorApp::adjust_camera(bool reset_angles) {
   if (!document_) return;
   const auto extent = target_->extent();
   const float aspect = extent.height > 0 ? static_cast<float>(extent.width) / static_cast<float>(extent.height) : 1.0f;
-  const auto bounds = engine::Bounds::of(document_->rest().positions);
-  if (reset_angles) camera_ = engine::Camera::three_quarter_front(bounds, up_axis(), aspect);
-  else camera_.fit(bounds, aspect);
+  if (reset_angles) {
+    camera_ = engine::Camera::three_quarter_front(engine::Bounds::of(document_->rest().positions), up_axis(), aspect, panel_fraction());
+    return;
+  }
+  // Fit: the shape as it is on screen, deformed, not the rest shape.
+  engine::Bounds bounds = engine::Bounds::of(document_->rest().positions);
+  if (const engine::GeometrySnapshot* shown = shown_geometry(); shown != nullptr && !shown->position_normal.empty()) {
+    const auto& values = shown->position_normal;
+    bounds.min = bounds.max = Eigen::Vector3f(values[0], values[1], values[2]);
+    for (std::size_t k = 0; k + 2 < values.size(); k += 6) {
+      const Eigen::Vector3f p(values[k], values[k + 1], values[k + 2]);
+      bounds.min = bounds.min.cwiseMin(p);
+      bounds.max = bounds.max.cwiseMax(p);
+    }
+  }
+  camera_.covered_left = panel_fraction();
+  camera_.fit(bounds, aspect);
 }
 
-void EditorApp::open_path(const std::string& path) {
+std::optional<engine::UpAxis> EditorApp::chosen_up_axis() const {
+  if (options_.up == "y") return engine::UpAxis::Y;
+  if (options_.up == "z") return engine::UpAxis::Z;
+  return std::nullopt;
+}
+
+std::string EditorApp::default_output_path() const {
+  std::error_code ignored;
+  const std::filesystem::path folder = !save_folder_.empty() ? save_folder_ : std::filesystem::current_path(ignored);
+  if (names_builtin_shape(mesh_name_)) return (folder / (MeshSource::from_name(mesh_name_).shape_name + "-edited.obj")).string();
+  const std::filesystem::path input(mesh_name_);
+  // The result keeps the input's format where it is one that is written (PLY), else OBJ.
+  const std::string extension = mesh_format_of(input) == MeshFormat::Ply ? input.extension().string() : ".obj";
+  return (folder / (input.stem().string() + "-edited" + extension)).string();
+}
+
+std::string EditorApp::PendingAction::describe() const {
+  return kind == Kind::Quit ? std::string("Quitting") : "Opening " + std::filesystem::path(path).filename().string();
+}
+
+UnsavedWork EditorApp::unsaved_work() const {
+  UnsavedWork work;
+  if (document_ && document_->modified()) work.edits = "the edits of " + std::filesystem::path(mesh_name_).filename().string();
+  if (transfer_) work.markers = transfer_->unsaved_markers();
+  return work;
+}
+
+void EditorApp::ask_or_run(const PendingAction& action) {
+  if (options_.benchmark_drag_seconds > 0.0 || !unsaved_work().any()) return run_action(action);
+  asked_ = action;
+}
+
+void EditorApp::run_action(const PendingAction& action) {
+  if (action.kind == PendingAction::Kind::Quit) quit_ = true;
+  else open_now(action.path);
+}
+
+void EditorApp::answer_unsaved(UnsavedChoice choice) {
+  const PendingAction action = *std::exchange(asked_, std::nullopt);
+  if (choice == UnsavedChoice::Cancel) {
+    status_ = action.describe() + ": cancelled";
+    return;
+  }
+  if (choice == UnsavedChoice::Discard) return run_action(action);
+  // Save: the markers where they were saved before (else Save as, and the action waits for the
+  // user to ask again), then the edits; the action follows the last save written.
+  if (transfer_ && !transfer_->unsaved_markers().empty() && !transfer_->save_markers_in_place()) {
+    status_ = "Choose where the marker pairs go, then " + lowercase_first(action.describe()) + " again";
+    return;
+  }
+  if (document_ && document_->modified()) {
+    after_save_ = action;
+    save(output_path_);
+    return;
+  }
+  run_action(action);
+}
+
+void EditorApp::open_path(const std::string& path) { ask_or_run({PendingAction::Kind::Open, path}); }
+
+void EditorApp::open_now(const std::string& path) {
   last_open_request_ = path;
   if (path.ends_with(".json")) {
     start_load(path, [path] {
@@ -363,19 +449,39 @@ void EditorApp::post_recovery() {
   recovery_dirty_ = false;
 }
 
-bool EditorApp::save(const std::string& path) {
-  if (!document_ || path.empty()) return false;
+void EditorApp::save(const std::string& path) {
+  if (!document_ || path.empty()) return;
+  pending_save_ = path;
+  finish_pending_save();
+  if (pending_save_) status_ = "Saving " + std::filesystem::path(path).filename().string() + " once the shape settles (refining)...";
+}
+
+void EditorApp::finish_pending_save() {
+  if (!pending_save_ || !document_ || !document_->settled()) return;
+  const std::string path = *std::exchange(pending_save_, std::nullopt);
+  if (write_save(path) && after_save_) run_action(*std::exchange(after_save_, std::nullopt));
+  after_save_.reset();
+}
+
+bool EditorApp::write_save(const std::string& path) {
   try {
+    // Settled: the pipeline's last answer, the shape on screen.
     const Eigen::MatrixXd result = document_->result();
+    const Session session = document_->session();
     write_mesh(path, Mesh{result, document_->rest().triangles});
-    write_session(session_path_for(path), document_->session());
+    write_session(session_path_for(path), session);
     document_->mark_saved();
-    status_ = "Saved " + path + " and " + session_path_for(path);
+    output_path_ = path;
+    save_folder_ = std::filesystem::absolute(path).parent_path();
+    // File names only: a long path wraps the footer over the panel's controls.
+    status_ = "Saved " + std::filesystem::path(path).filename().string() + " and " + std::filesystem::path(session_path_for(path)).filename().string();
     error_message_.clear();
-    print_json_line({{"event", "saved"}, {"obj", path}, {"session", session_path_for(path)}});
+    print_json_line({{"event", "saved"}, {"obj", path}, {"session", session_path_for(path)}, {"positions_digest", positions_digest(result)}});
     return true;
   } catch (const std::exception& error) {
-    error_message_ = error.what();
+    save_failure_ = error.what();
+    error_message_ = "Not saved: " + save_failure_;
+    print_json_line({{"event", "error"}, {"message", error_message_}});
     return false;
   }
 }
@@ -399,9 +505,6 @@ void EditorApp::quit_on_signal(int signal) {
   quit_ = true;
 }
 
-void EditorApp::request_quit() {
-  if (document_ && document_->modified() && options_.benchmark_drag_seconds <= 0.0) quit_dialog_ = true;
-  else quit_ = true;
-}
+void EditorApp::request_quit() { ask_or_run({PendingAction::Kind::Quit, {}}); }
 
 }  // namespace hdeform::cli::gui

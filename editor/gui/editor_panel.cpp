@@ -50,7 +50,7 @@ void EditorApp::draw_controls() {
   set_mode(mode == 1 ? Mode::Transfer : Mode::Edit);
   ImGui::Separator();
   if (mode_ == Mode::Transfer) {
-    transfer_->draw_panel(pressed(GLFW_KEY_ESCAPE));
+    transfer_->draw_panel(dialog_keys());
     return;
   }
   ImGui::TextWrapped("%s", !mesh_name_.empty() ? mesh_name_.c_str()
@@ -61,6 +61,7 @@ void EditorApp::draw_controls() {
   if (ImGui::Button("Open...")) request_open();
   ImGui::SameLine();
   if (ImGui::Button("Save")) save(output_path_);
+  if (ImGui::IsItemHovered() && document_) ImGui::SetTooltip("Saves to %s\n(and its session beside it; Save as chooses another)", output_path_.c_str());
   ImGui::SameLine();
   if (ImGui::Button("Save as...")) request_save_as();
   ImGui::SameLine();
@@ -175,11 +176,16 @@ void EditorApp::draw_controls() {
   if (refine) {
     const auto view = document_->refinement();
     const auto& status = view.status;
-    if (status.iterations == 0) {
+    if (status.iterations == 0 && !status.converged) {
       ImGui::TextDisabled("Refinement: waiting for the update");
     } else {
       ImGui::Text("Refinement: %d iterations%s", status.iterations, status.converged ? ", settled" : "...");
       ImGui::Text("Energy %.4g (paper's %.4g, %.1f ms each)", status.energy, status.unrefined_energy, view.iteration_ms);
+    }
+    if (ImGui::IsItemHovered()) {
+      ImGui::SetTooltip("Settled: an iteration would move no vertex by more than %g of the bounding box's diagonal\n"
+                        "(edit --refine auto --refine-settle %g gives the same shape; its own default stop is tighter).",
+                        document_->refine_settle(), document_->refine_settle());
     }
   }
   ImGui::Checkbox("Profiler (P)", &show_profiler_);
@@ -214,6 +220,7 @@ void EditorApp::announce_pose_fields() {
 }
 
 void EditorApp::draw_dialogs() {
+  if (show_help_ && pressed(GLFW_KEY_ESCAPE) && !ImGui::IsPopupOpen(nullptr, ImGuiPopupFlags_AnyPopupId)) show_help_ = false;
   if (show_help_) {
     ImGui::SetNextWindowPos(ImVec2(kPanelWidth + 20, 20), ImGuiCond_Appearing);
     ImGui::Begin("Shortcuts (F1)", &show_help_, ImGuiWindowFlags_AlwaysAutoResize);
@@ -253,18 +260,38 @@ void EditorApp::draw_dialogs() {
   if (open_dialog_ && recent_shown_.empty() && recent_) recent_shown_ = recent_->list();
   if (!open_dialog_) recent_shown_.clear();
   if (const auto path = path_prompt("Open", open_dialog_, path_buffer_, pressed(GLFW_KEY_ESCAPE), recent_shown_)) open_path(*path);
-  if (const auto path = path_prompt("Save as", save_dialog_, path_buffer_, pressed(GLFW_KEY_ESCAPE)); path && save(*path)) output_path_ = *path;
-  if (quit_dialog_) ImGui::OpenPopup("Quit");
-  if (ImGui::BeginPopupModal("Quit", nullptr, ImGuiWindowFlags_AlwaysAutoResize)) {
-    ImGui::Text("Quit without saving the changes?");
-    if (ImGui::Button("Quit (Enter)") || pressed(GLFW_KEY_ENTER) || pressed(GLFW_KEY_KP_ENTER)) quit_ = true;
-    ImGui::SameLine();
-    if (ImGui::Button("Cancel (Esc)") || pressed(GLFW_KEY_ESCAPE)) {
-      quit_dialog_ = false;
-      ImGui::CloseCurrentPopup();
-    }
-    ImGui::EndPopup();
+  if (const auto path = path_prompt("Save as", save_dialog_, path_buffer_, pressed(GLFW_KEY_ESCAPE))) save(*path);
+  draw_save_failure();
+  if (asked_) {
+    const UnsavedChoice choice =
+        unsaved_prompt(asked_->describe(), unsaved_work(), dialog_keys());
+    if (choice != UnsavedChoice::Undecided) answer_unsaved(choice);
   }
+}
+
+void EditorApp::draw_save_failure() {
+  constexpr const char* kTitle = "Could not save";
+  if (!save_failure_.empty() && !ImGui::IsPopupOpen(kTitle)) {
+    ImGui::OpenPopup(kTitle);
+    print_json_line({{"event", "dialog"}, {"title", kTitle}, {"message", save_failure_}});
+  }
+  if (!ImGui::BeginPopupModal(kTitle, nullptr, ImGuiWindowFlags_AlwaysAutoResize)) return;
+  const bool keys = !ImGui::IsWindowAppearing();  // not the Enter that confirmed Save as
+  ImGui::PushTextWrapPos(ImGui::GetFontSize() * 36.0f);
+  ImGui::TextUnformatted(save_failure_.c_str());
+  ImGui::TextDisabled("Nothing was written. The edits are still here, and in the recovery file.");
+  ImGui::PopTextWrapPos();
+  const auto close = [this] {
+    save_failure_.clear();
+    ImGui::CloseCurrentPopup();
+  };
+  if (ImGui::Button("Save as... (Enter)") || (keys && (pressed(GLFW_KEY_ENTER) || pressed(GLFW_KEY_KP_ENTER)))) {
+    close();
+    request_save_as();
+  }
+  ImGui::SameLine();
+  if (ImGui::Button("Close (Esc)") || (keys && pressed(GLFW_KEY_ESCAPE))) close();
+  ImGui::EndPopup();
 }
 
 void EditorApp::request_open() {

@@ -62,7 +62,8 @@ HandleTransform drag_pose(const HandleTransform& pose, const EditTools& tools, G
       compose_rotation(axis, angle, (-step.forward).cast<double>(), -turn);  // clockwise on screen (y down) is clockwise seen
       break;
     }
-    case Tool::Scale: scale = std::clamp(scale * std::exp(-0.01 * step.delta.y()), 0.05, 20.0); break;
+    // Up or right grows it (100 pixels: a factor e), down or left shrinks it.
+    case Tool::Scale: scale = std::clamp(scale * std::exp(0.01 * (step.delta.x() - step.delta.y())), 0.05, 20.0); break;
     case Tool::Twist: compose_rotation(axis, angle, twist_direction(tools.twist_axis, step.forward), 0.01 * step.delta.x()); break;
     default: return pose;
   }

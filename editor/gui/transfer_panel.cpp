@@ -12,7 +12,8 @@
 
 namespace hdeform::cli {
 
-void TransferView::draw_panel(bool escape_pressed) {
+void TransferView::draw_panel(const DialogKeys& keys) {
+  const bool escape_pressed = keys.escape;
   ImGui::TextDisabled("Meshes");
   ImGui::InputText("Source rest", source_path_, sizeof source_path_);
   ImGui::InputText("Source poses", poses_path_, sizeof poses_path_);
@@ -24,9 +25,19 @@ void TransferView::draw_panel(bool escape_pressed) {
   ImGui::RadioButton("2", &source_column_, 2);
   if (ImGui::Button("Load")) {
     try {
-      open({source_path_, target_path_, expand_paths(poses_path_), markers_file_, source_column_});
+      open_or_ask({source_path_, target_path_, expand_paths(poses_path_), markers_file_, source_column_});
     } catch (const std::exception& error) {
       error_ = error.what();
+    }
+  }
+  if (asked_open_) {
+    const UnsavedChoice choice = unsaved_prompt("Loading " + std::filesystem::path(asked_open_->source_rest).filename().string() + " and " +
+                                                    std::filesystem::path(asked_open_->target).filename().string(),
+                                                {"", unsaved_markers()}, keys);
+    if (choice != UnsavedChoice::Undecided) {
+      const TransferPaths inputs = *std::exchange(asked_open_, std::nullopt);
+      if (choice == UnsavedChoice::Discard || (choice == UnsavedChoice::Save && save_markers_in_place())) open(inputs);
+      if (choice == UnsavedChoice::Save && !unsaved_markers().empty()) status_ = "Choose where the marker pairs go, then load again";
     }
   }
   if (!sides_[0]) {

@@ -64,7 +64,7 @@ std::vector<std::string> expand_paths(const std::string& text) {
 void copy_text(char* buffer, std::size_t size, const std::string& text) { std::snprintf(buffer, size, "%s", text.c_str()); }
 
 TransferView::TransferView(const engine::VulkanContext& context, VkRenderPass render_pass, const engine::PassFormat& format,
-                           uint32_t frames_in_flight, engine::UpAxis up)
+                           uint32_t frames_in_flight, std::optional<engine::UpAxis> up)
     : context_(context), render_pass_(render_pass), format_(format), frames_in_flight_(frames_in_flight), up_(up) {}
 
 TransferView::~TransferView() {
@@ -132,7 +132,7 @@ void TransferView::drop(const std::vector<std::string>& paths, const ImVec2& cur
     inputs.poses.assign(paths.begin() + 1, paths.end());
   }
   if (!inputs.source_rest.empty() && !inputs.target.empty()) {
-    open(inputs);
+    open_or_ask(inputs);
   } else {
     copy_text(source_path_, sizeof source_path_, inputs.source_rest);
     copy_text(target_path_, sizeof target_path_, inputs.target);
@@ -151,7 +151,7 @@ void TransferView::install(std::unique_ptr<Loaded> loaded) {
     side->exchange = std::make_unique<engine::GeometryExchange>(static_cast<std::size_t>(side->rest.vertex_count()));
     side->publisher = std::make_unique<engine::GeometryPublisher>(*side->exchange, side->rest.triangles);
     side->renderer = std::make_unique<engine::MeshRenderer>(context_, render_pass_, format_, frames_in_flight_);
-    side->up = up_;
+    side->up = up_.value_or(engine::guess_up_axis(side->rest.positions));
     side->renderer->set_mesh(side->rest.triangles, *side->exchange, engine::Bounds::of(side->rest.positions), side->up);
     side->settings.legend = false;
     sides_[s] = std::move(side);
@@ -161,10 +161,12 @@ void TransferView::install(std::unique_ptr<Loaded> loaded) {
   pose_paths_ = std::move(loaded->pose_paths);
   markers_ = MarkerEditor{};
   if (loaded->markers) markers_.replace(std::move(*loaded->markers));
+  saved_markers_version_ = markers_.version();
   ++settings_version_;
-  if (restoring_) apply_restored(*std::exchange(restoring_, std::nullopt));
   markers_path_ = loaded->markers_path;
   source_column_ = loaded->source_column;
+  // Last: a restored state's markers file and pairs (unsaved until saved) win over the load's.
+  if (restoring_) apply_restored(*std::exchange(restoring_, std::nullopt));
   computed_.reset();
   pending_.reset();
   drag_.reset();
@@ -565,9 +567,31 @@ void TransferView::start_compute() {
   }, [] { glfwPostEmptyEvent(); });
 }
 
+std::string TransferView::unsaved_markers() const {
+  if (!sides_[0] || markers_.version() == saved_markers_version_) return "";
+  return std::to_string(markers_.size()) + " marker pair" + (markers_.size() == 1 ? "" : "s") +
+         (markers_path_.empty() || !std::filesystem::exists(markers_path_) ? " (never saved)"
+                                                                          : " (changed since " + std::filesystem::path(markers_path_).filename().string() + ")");
+}
+
+bool TransferView::save_markers_in_place() {
+  if (markers_path_.empty()) {
+    save_as_open_ = true;
+    return false;
+  }
+  save_markers(markers_path_);
+  return markers_.version() == saved_markers_version_;
+}
+
+void TransferView::open_or_ask(const TransferPaths& inputs) {
+  if (unsaved_markers().empty()) return open(inputs);
+  asked_open_ = inputs;
+}
+
 void TransferView::save_markers(const std::string& path) {
   try {
     write_marker_pairs(path, markers_.pairs(), source_column_ == 2 ? SourceColumn::Second : SourceColumn::First);
+    saved_markers_version_ = markers_.version();
     markers_path_ = path;
     copy_text(markers_file_, sizeof markers_file_, path);
     status_ = "Saved " + std::to_string(markers_.size()) + " marker pairs to " + path;

@@ -23,6 +23,7 @@
 #include "background_task.h"
 #include "marker_editor.h"
 #include "transfer_state.h"
+#include "gui/widgets.h"
 
 struct ImVec2;
 
@@ -39,8 +40,9 @@ struct TransferPaths {
 
 class TransferView {
  public:
+  // `up`: every mesh's up axis, or none: each mesh's guessed (engine::guess_up_axis).
   TransferView(const engine::VulkanContext& context, VkRenderPass render_pass, const engine::PassFormat& format, uint32_t frames_in_flight,
-               engine::UpAxis up);
+               std::optional<engine::UpAxis> up);
   ~TransferView();
   TransferView(const TransferView&) = delete;
   TransferView& operator=(const TransferView&) = delete;
@@ -53,7 +55,7 @@ class TransferView {
 
   // Each frame, on the UI thread, in this order.
   void poll();                                        // finished work, playback
-  void draw_panel(bool escape_pressed);               // inside the side panel window
+  void draw_panel(const DialogKeys& keys);            // inside the side panel window
   void handle_mouse();                                // clicks, marker drags, cameras
   void handle_key(int key, int mods);                 // shortcuts (not when ImGui takes the keyboard)
   void draw_overlays();                               // marker numbers, the pending marker
@@ -67,6 +69,12 @@ class TransferView {
   // Opens the state's files, then puts back its markers, up axes and settings.
   void restore(const TransferState& state);
   bool restoring() const { return restoring_.has_value(); }
+
+  // "12 marker pairs" when the pairs differ from those last loaded or saved, else "".
+  std::string unsaved_markers() const;
+  // Saves them where they were loaded from or last saved; false (and the Save as dialog opens)
+  // when there is no such file yet or the save failed.
+  bool save_markers_in_place();
 
   // Whether frames must keep coming (work in progress, playing).
   bool busy() const;
@@ -98,7 +106,7 @@ class TransferView {
   VkRenderPass render_pass_;
   engine::PassFormat format_;
   uint32_t frames_in_flight_;
-  engine::UpAxis up_;
+  std::optional<engine::UpAxis> up_;
   std::unique_ptr<Side> sides_[2];  // 0: source, 1: target
 
   std::vector<Eigen::MatrixXd> poses_;
@@ -107,7 +115,11 @@ class TransferView {
   std::uint64_t settings_version_ = 0;       // loads, up axes, method and its settings
   std::optional<TransferState> restoring_;  // applied when the load it started finishes
   MarkerEditor markers_;
+  std::uint64_t saved_markers_version_ = 0;  // the markers' version as loaded or last saved
   std::string markers_path_;
+  // Loading other meshes drops the markers: with unsaved ones, it waits for the user's answer.
+  std::optional<TransferPaths> asked_open_;
+  void open_or_ask(const TransferPaths& inputs);
   int source_column_ = 1;
 
   // Marker editing.

@@ -4,6 +4,10 @@
 
 #include <cstdio>
 
+#include <nlohmann/json.hpp>
+
+#include "cli_support.h"
+
 namespace hdeform::cli {
 
 void wrapped_in_color(const ImVec4& color, const std::string& text) {
@@ -43,6 +47,38 @@ std::optional<std::string> path_prompt(const char* title, bool& open, std::span<
   }
   ImGui::EndPopup();
   return chosen;
+}
+
+UnsavedChoice unsaved_prompt(const std::string& action, const UnsavedWork& work, DialogKeys keys) {
+  constexpr const char* kTitle = "Unsaved changes";
+  if (!ImGui::IsPopupOpen(kTitle)) {
+    ImGui::OpenPopup(kTitle);
+    print_json_line({{"event", "dialog"}, {"title", kTitle}, {"action", action}, {"edits", work.edits}, {"markers", work.markers}});
+  }
+  if (!ImGui::BeginPopupModal(kTitle, nullptr, ImGuiWindowFlags_AlwaysAutoResize)) return UnsavedChoice::Undecided;
+  // The key that confirmed the dialog before this one (Open's Enter) is not an answer to it.
+  if (ImGui::IsWindowAppearing()) keys = {};
+  ImGui::PushTextWrapPos(ImGui::GetFontSize() * 36.0f);
+  ImGui::Text("%s would discard what is not saved:", action.c_str());
+  if (!work.edits.empty()) ImGui::BulletText("%s", work.edits.c_str());
+  if (!work.markers.empty()) ImGui::BulletText("%s", work.markers.c_str());
+  ImGui::TextDisabled("Until you choose, the recovery file keeps it.");
+  ImGui::PopTextWrapPos();
+  ImGui::Spacing();
+  UnsavedChoice choice = UnsavedChoice::Undecided;
+  if (ImGui::Button("Save (Enter)") || keys.enter) choice = UnsavedChoice::Save;
+  ImGui::SameLine();
+  if (ImGui::Button("Discard (D)") || keys.d) choice = UnsavedChoice::Discard;
+  ImGui::SameLine();
+  if (ImGui::Button("Cancel (Esc)") || keys.escape) choice = UnsavedChoice::Cancel;
+  if (choice != UnsavedChoice::Undecided) {
+    ImGui::CloseCurrentPopup();
+    print_json_line({{"event", "dialog closed"},
+                     {"title", kTitle},
+                     {"choice", choice == UnsavedChoice::Save ? "save" : choice == UnsavedChoice::Discard ? "discard" : "cancel"}});
+  }
+  ImGui::EndPopup();
+  return choice;
 }
 
 }  // namespace hdeform::cli
