@@ -386,6 +386,7 @@ void Document::install_build() {
   });
   pipeline_->set_refinement(refine_);
   pipeline_->set_refinement_delay(refinement_delay_);
+  pipeline_->set_refinement_publication_interval(publication_interval_);
   request_update();
 }
 
@@ -460,6 +461,12 @@ void Document::set_refinement_delay(std::chrono::milliseconds delay) {
   if (delay == refinement_delay_) return;
   refinement_delay_ = delay;
   if (pipeline_) pipeline_->set_refinement_delay(delay);
+}
+
+void Document::set_refinement_publication_interval(std::chrono::milliseconds interval) {
+  if (interval == publication_interval_) return;
+  publication_interval_ = interval;
+  if (pipeline_) pipeline_->set_refinement_publication_interval(interval);
 }
 
 void Document::set_refine(bool on) {

@@ -116,6 +116,8 @@ class Document {
   void set_refine(bool on);
   // How long the input must rest before refinement runs (UpdatePipeline::set_refinement_delay).
   void set_refinement_delay(std::chrono::milliseconds delay);
+  // ... and how often its iterations are shown (UpdatePipeline::set_refinement_publication_interval).
+  void set_refinement_publication_interval(std::chrono::milliseconds interval);
   // Where its refinement stops (EditStage::refine_settle): the editor's kEditorSettle for a new
   // session, the session's own value for one opened.
   double refine_settle() const { return refine_settle_; }
@@ -203,6 +205,7 @@ class Document {
   double refine_settle_ = 0.0;
   std::optional<EditStage> submitted_;  // the stage whose poses the pipeline was last asked for
   std::chrono::milliseconds refinement_delay_{0};
+  std::chrono::milliseconds publication_interval_{0};
   mutable std::mutex refinement_mutex_;
   RefinementStatus refinement_;
   double refinement_ms_ = 0.0;

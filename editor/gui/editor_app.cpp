@@ -308,6 +308,8 @@ void EditorApp::step() {
     // wait until the input rests (buddha-206k on lavapipe: 17.7 fps and 99 ms input to screen
     // with iterations between the drag's updates, against 29.7 fps and 52 ms without).
     document_->set_refinement_delay(std::chrono::milliseconds(latch_solves_ ? kRefineAfterRestMs : 0));
+    // ... and each frame of a settling shape takes them from the iterations: a few per second.
+    document_->set_refinement_publication_interval(std::chrono::milliseconds(latch_solves_ ? kRefinementFrameMs : 0));
     if (document_->solver_state() != before) {
       view_dirty_ = true;
       announce_solver_state();
@@ -478,6 +480,11 @@ void EditorApp::write_screenshot(const engine::Pixels& pixels) {
 
 void EditorApp::benchmark_step() {
   if (!document_ || document_->solver_state() != Document::SolverState::Ready) return;
+  if (settle_started_) {
+    // Released: the loop runs as for a user (frames as results land) until the shape settles.
+    if (document_->settled() || seconds_since(*settle_started_) > kSettleTimeout) finish_benchmark();
+    return;
+  }
   if (!benchmark_) {
     benchmark_target_ = document_->pose(0);
     if (benchmark_target_.angle == 0.0 && benchmark_target_.shift.isZero()) {
@@ -493,7 +500,15 @@ void EditorApp::benchmark_step() {
     benchmark_->stop();
     slots_->wait_all();
     note_finished_frames();
-    finish_benchmark();
+    drag_report_ = drag_figures(seconds_since(benchmark_->started()));
+    benchmark_.reset();
+    if (!document_->refine()) return finish_benchmark();
+    // The release, at the target pose: how long until the refinement settles on screen.
+    const HandleTransform& target = benchmark_target_;
+    document_->set_pose(0, target.axis, target.angle, target.scale, target.shift);
+    settle_started_ = Clock::now();
+    note_pose_input(*settle_started_);
+    post_pending_solve();
     return;
   }
   take_benchmark_input();
@@ -508,30 +523,45 @@ void EditorApp::take_benchmark_input() {
   note_pose_input(events);
 }
 
-void EditorApp::finish_benchmark() {
-  const double seconds = seconds_since(benchmark_->started());
-  benchmark_.reset();
-  benchmark_done_ = true;
+nlohmann::json EditorApp::drag_figures(double seconds) const {
   const std::vector<double> frames = statistics_.frame_intervals();
   const std::vector<double> latencies = statistics_.latencies();
   const auto extent = target_->extent();
-  nlohmann::json report = {{"command", "gui --benchmark-drag"},
-                           {"mesh", mesh_name_},
-                           {"vertices", document_->vertex_count()},
-                           {"triangles", document_->rest().triangle_count()},
-                           {"device", context_->device_name()},
-                           {"width", extent.width},
-                           {"height", extent.height},
-                           {"samples", static_cast<int>(target_->format().samples)},
-                           {"pacing", latch_solves_ ? "latch" : "free"},
-                           {"seconds", seconds},
-                           {"frames", frames.size()},
-                           {"frames_per_second", static_cast<double>(frames.size()) / seconds},
-                           {"frame_ms", to_json(summarize(frames))},
-                           {"input_to_screen_ms", to_json(summarize(latencies))},
-                           {"updates_shown", latencies.size()},
-                           {"last_update_ms", document_->last_update_ms()},
-                           {"validation_messages", context_->validation_message_count()}};
+  return {{"command", "gui --benchmark-drag"},
+          {"mesh", mesh_name_},
+          {"vertices", document_->vertex_count()},
+          {"triangles", document_->rest().triangle_count()},
+          {"device", context_->device_name()},
+          {"width", extent.width},
+          {"height", extent.height},
+          {"samples", static_cast<int>(target_->format().samples)},
+          {"pacing", latch_solves_ ? "latch" : "free"},
+          {"seconds", seconds},
+          {"frames", frames.size()},
+          {"frames_per_second", static_cast<double>(frames.size()) / seconds},
+          {"frame_ms", to_json(summarize(frames))},
+          {"input_to_screen_ms", to_json(summarize(latencies))},
+          {"updates_shown", latencies.size()},
+          {"last_update_ms", document_->last_update_ms()}};
+}
+
+void EditorApp::finish_benchmark() {
+  benchmark_done_ = true;
+  nlohmann::json report = drag_report_.is_null() ? drag_figures(seconds_since(benchmark_->started())) : drag_report_;
+  benchmark_.reset();
+  if (settle_started_) {
+    // From the release to the step that found the refinement settled; that step's frame draws it.
+    const auto view = document_->refinement();
+    report["settle"] = {{"ms", seconds_since(*settle_started_) * 1000.0},
+                        {"settled", document_->settled()},
+                        {"iterations", view.status.iterations},
+                        {"iteration_ms", view.iteration_ms},
+                        {"energy", view.status.energy},
+                        {"unrefined_energy", view.status.unrefined_energy},
+                        {"refine_settle", document_->refine_settle()}};
+    settle_started_.reset();
+  }
+  report["validation_messages"] = context_->validation_message_count();
   if (!options_.benchmark_out.empty()) {
     const std::string text = report.dump(2) + "\n";
     write_file_atomically(options_.benchmark_out, [&](std::ostream& out) { out << text; });

@@ -9,6 +9,7 @@
 #define GLFW_INCLUDE_VULKAN
 #include <GLFW/glfw3.h>
 #include <imgui.h>
+#include <nlohmann/json.hpp>
 #include <backends/imgui_impl_glfw.h>
 #include <backends/imgui_impl_vulkan.h>
 #include <algorithm>
@@ -72,6 +73,7 @@ inline constexpr double kRecoveryInterval = 3.0;  // seconds between periodic re
 inline constexpr double kProgressDelay = 0.5;     // show progress for work longer than this
 inline constexpr double kMaxLatchMs = 20.0;       // the longest a frame waits for a solve ("latch" pacing)
 inline constexpr int kRefineAfterRestMs = 150;     // "latch": refinement once the input has rested this long
+inline constexpr int kRefinementFrameMs = 100;     // "latch": a settling shape is drawn at most this often
 
 inline std::string lowercase_first(std::string text) {
   if (!text.empty()) text[0] = static_cast<char>(std::tolower(static_cast<unsigned char>(text[0])));
@@ -393,8 +395,11 @@ class EditorApp {
   // produces timestamped moves at 100 Hz, independent of the frames, and the loop takes them
   // whenever it gets to them; each move's latency runs from its timestamp to the first frame
   // that shows a solve including it.
+  // With refinement on, the drag ends with a release at the target pose, and the report adds
+  // how long the refinement then takes to settle on screen ("settle").
   void benchmark_step();
   void take_benchmark_input();
+  nlohmann::json drag_figures(double seconds) const;
   void finish_benchmark();
 
   // ---- state ------------------------------------------------------------------------------------------
@@ -498,6 +503,9 @@ class EditorApp {
   std::unique_ptr<SyntheticDrag> benchmark_;  // --benchmark-drag, while it runs
   bool benchmark_done_ = false;
   HandleTransform benchmark_target_;
+  nlohmann::json drag_report_;                         // the drag's figures, while the release settles
+  std::optional<Clock::time_point> settle_started_;    // the release
+  static constexpr double kSettleTimeout = 120.0;      // seconds
 };
 
 }  // namespace hdeform::cli::gui

@@ -88,9 +88,16 @@ void UpdatePipeline::run() {
         converged = status.converged;
       }
       const double elapsed = milliseconds_since(start);
-      {
+      const auto now = std::chrono::steady_clock::now();
+      bool publish = true;
+      if (!update && !converged && status.iterations < deformer_.refinement_options().max_iterations) {
+        std::lock_guard lock(mutex_);
+        publish = now - last_publication_ >= publication_interval_;
+      }
+      if (publish) {
         const trace::Scope traced("publish", "pipeline");
         publish_(Result{positions_, request, elapsed, status});
+        last_publication_ = now;
       }
       std::lock_guard lock(mutex_);
       if (update) {
@@ -117,6 +124,11 @@ void UpdatePipeline::set_refinement_delay(std::chrono::milliseconds delay) {
     refinement_delay_ = delay;
   }
   wake_.notify_one();
+}
+
+void UpdatePipeline::set_refinement_publication_interval(std::chrono::milliseconds interval) {
+  std::lock_guard lock(mutex_);
+  publication_interval_ = interval;
 }
 
 void UpdatePipeline::wait_idle() {

@@ -57,6 +57,10 @@ class UpdatePipeline {
   // where iterations would take the cores the rasterizer needs, the editor waits for the input to
   // rest, so that a drag is answered as fast as without refinement.
   void set_refinement_delay(std::chrono::milliseconds delay);
+  // Refinement iterations are published at most this often (0 at first: each); the last of a run
+  // (converged, or at the cap) always is. On a CPU device every publication is a frame drawn on
+  // the cores the iterations need.
+  void set_refinement_publication_interval(std::chrono::milliseconds interval);
 
   std::uint64_t finished_updates() const;
   std::uint64_t superseded_requests() const;  // replaced by a newer one before they started
@@ -86,6 +90,8 @@ class UpdatePipeline {
   std::uint64_t answered_request_ = 0;  // the request the published positions answer
   std::chrono::steady_clock::time_point last_submit_{};
   std::chrono::milliseconds refinement_delay_{0};
+  std::chrono::milliseconds publication_interval_{0};
+  std::chrono::steady_clock::time_point last_publication_{};
   std::uint64_t finished_ = 0;
   std::uint64_t superseded_ = 0;
   std::exception_ptr error_;
