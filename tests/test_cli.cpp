@@ -78,6 +78,13 @@ TEST_F(Cli, UsageErrorsExitWithTwo) {
   EXPECT_EQ(mismatch.exit_code, 2);
   EXPECT_TRUE(contains(mismatch.err, "one --transform per --handle"));
   EXPECT_FALSE(std::filesystem::exists(path("x.obj")));
+  // Vertex lists without the mesh they number: refused, not applied to the built-in cactus.
+  // (Checked before any window opens: no display needed.)
+  const auto lists_alone = run(dir, "gui --handle " + path("h.txt"));
+  EXPECT_EQ(lists_alone.exit_code, 2);
+  EXPECT_TRUE(contains(lists_alone.err, "give the mesh too")) << lists_alone.err;
+  EXPECT_EQ(run(dir, "gui shape:cactus --up x").exit_code, 2);
+  EXPECT_EQ(run(dir, "edit --shape cactus --refine auto --refine-settle 2 --out " + path("x.obj")).exit_code, 2);
 }
 
 TEST_F(Cli, BadDataExitsWithOneNamesTheFileAndWritesNothing) {

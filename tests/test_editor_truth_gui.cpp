@@ -284,6 +284,55 @@ TEST_F(ShownShapeGui, ASaveIntoAReadOnlyFolderOpensADialogAndWritesNothing) {
   quit_discarding_changes(*editor);
 }
 
+// A vertex list given with a mesh that cannot be used: the mesh opens anyway, without the lists,
+// and the window says which file and line, and why.
+TEST_F(EditorGui, ABadFixedListLeavesTheMeshOpenAndSaysWhy) {
+  dir.write("bad.txt", "1\n2\nabc\n");
+  std::vector<std::string> arguments = editor_arguments("no");
+  arguments.insert(arguments.begin() + 1, {"--fixed", dir.file("bad.txt").string()});
+  Editor editor(arguments);
+  const json opened = editor.wait_for("opened");
+  EXPECT_EQ(opened.value("mesh", ""), dir.file("cactus.obj").string());
+  const json error = editor.wait_for("error");
+  EXPECT_NE(error.value("message", "").find("bad.txt:3"), std::string::npos) << error.dump();
+  EXPECT_EQ(editor.wait_for("dialog").value("title", ""), "Could not open");
+  ASSERT_NO_FATAL_FAILURE(find_window());
+  EXPECT_GT(title_bar_pixels(window_picture(editor)), 1000) << "no dialog in the middle of the window";
+  press("Escape");
+  quit(editor);
+}
+
+// The markers file a transfer session saves to survives restore after restore: each restore's
+// recovery file still names it (a second crash used to forget it).
+TEST_F(EditorGui, TransferModeKeepsItsMarkersFileAcrossTwoCrashes) {
+  const std::vector<std::string> arguments{"--size", std::to_string(kWidth) + "x" + std::to_string(kHeight), "--recovery-file",
+                                           dir.file("recovery.json").string(), "--validation", "--transfer-source", dir.file("cactus.obj").string(),
+                                           "--transfer-target", dir.file("cactus.obj").string(), "--markers", dir.file("markers.txt").string()};
+  const float view_width = (kWidth - kPanelWidth) / 2.0f;
+  int round = 0;
+  for (const char* restore : {"no", "yes", "yes"}) {
+    const float height = kHeight * (0.45f + 0.1f * static_cast<float>(round++));  // another vertex each round
+    SCOPED_TRACE(std::string("--restore ") + restore);
+    std::vector<std::string> run = arguments;
+    run.insert(run.end(), {"--restore", restore});
+    Editor editor(run);
+    ASSERT_FALSE(editor.wait_for(restore == std::string("no") ? "transfer opened" : "transfer restored").is_null());
+    ASSERT_NO_FATAL_FAILURE(find_window());
+    // A pair more each time, written to the recovery file before the kill.
+    const auto before = editor.event_count();
+    move_to({kPanelWidth + 0.5f * view_width, height});
+    xdotool("click 1");
+    std::this_thread::sleep_for(250ms);
+    move_to({kPanelWidth + 1.5f * view_width, height});
+    xdotool("click 1");
+    editor.wait_for("marker added", 30s, before);
+    editor.wait_for("transfer recovery", 30s, before);
+    editor.kill_now();
+    const cli::TransferState kept = cli::read_transfer_state(dir.file("recovery-transfer.json"));
+    EXPECT_EQ(kept.markers_file, dir.file("markers.txt").string());
+  }
+}
+
 // Quit in transfer mode with a marker pair just added asks, and its recovery file stays until the
 // answer; Cancel keeps the pair.
 TEST_F(EditorGui, QuitInTransferModeWithANewMarkerPairAsksFirst) {
