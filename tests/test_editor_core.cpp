@@ -262,7 +262,7 @@ TEST_F(DocumentTest, ARefinedResultIsTheBatchReplayWhateverThePipelineShowed) {
 
 // What the screen shows once settled is what is saved and what `edit` computes, whatever poses came
 // before: the editor's reproductions of the stall (a drag reversed past the rest shape, a reset
-// then a drag another way, an undo to an earlier pose, a typed move of +5 then -5), driven through
+// then a drag another way, an undo to an earlier pose, a typed move of +0.5 then -0.5), driven through
 // the document window-free, with refinement interleaved with the requests as the pipeline runs it.
 class ShownShapeTest : public ::testing::Test {
  protected:

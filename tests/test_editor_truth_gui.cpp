@@ -110,6 +110,14 @@ class ShownShapeGui : public EditorGui {
     EXPECT_EQ(report["refine"]["last_step_iterations"].get<int>(), refined.value("iterations", -1));
   }
 
+  // A grab from `from` to `to` (offsets from grab_pixel()), then until it has settled.
+  json drag_and_settle(Editor& editor, const Eigen::Vector2f& from, const Eigen::Vector2f& to, int steps) {
+    const Eigen::Vector2f start = grab_pixel();
+    const auto before = editor.event_count();
+    drag(start + from, start + to, steps);
+    return settled_after(editor, before);
+  }
+
   Shape cylinder;
   double diagonal = 1.0;
 };
@@ -119,12 +127,10 @@ TEST_F(ShownShapeGui, ADragReversedPastTheRestShapeSettlesToWhatIsSaved) {
   ASSERT_NO_FATAL_FAILURE(until_ready(editor));
   press("g");
   const Eigen::Vector2f start = grab_pixel();
-  auto before = editor.event_count();
-  drag(start, start + Eigen::Vector2f(120.0f, 0.0f), 12);
-  const json right = settled_after(editor, before);
+  const json right = drag_and_settle(editor, Eigen::Vector2f::Zero(), Eigen::Vector2f(120.0f, 0.0f), 12);
   EXPECT_GT(right.value("iterations", 0), 3);
   // Back left past the rest position at a normal speed: 100 ms between moves.
-  before = editor.event_count();
+  const auto before = editor.event_count();
   move_to(start + Eigen::Vector2f(120.0f, 0.0f));
   xdotool("mousedown 1");
   std::this_thread::sleep_for(150ms);
@@ -144,18 +150,13 @@ TEST_F(ShownShapeGui, AResetThenADragAnotherWayAndAnUndoSettleToWhatIsSaved) {
   Editor editor(cylinder_arguments());
   ASSERT_NO_FATAL_FAILURE(until_ready(editor));
   press("g");
-  const Eigen::Vector2f start = grab_pixel();
+  const json first = drag_and_settle(editor, Eigen::Vector2f::Zero(), Eigen::Vector2f(110.0f, 0.0f), 10);
   auto before = editor.event_count();
-  drag(start, start + Eigen::Vector2f(110.0f, 0.0f), 10);
-  const json first = settled_after(editor, before);
-  before = editor.event_count();
   press("0");  // reset the handles
   const json reset = settled_after(editor, before);
   EXPECT_EQ(reset.value("iterations", -1), 0);
   EXPECT_EQ(reset.value("energy", -1.0), 0.0);
-  before = editor.event_count();
-  drag(start, start + Eigen::Vector2f(0.0f, 70.0f), 10);  // down the screen: another way
-  const json other = settled_after(editor, before);
+  const json other = drag_and_settle(editor, Eigen::Vector2f::Zero(), Eigen::Vector2f(0.0f, 70.0f), 10);  // down: another way
   EXPECT_GT(other.value("iterations", 0), 3);
   ASSERT_NO_FATAL_FAILURE(expect_screen_saved_and_batch_agree(editor, other, "reset, then a drag another way"));
   // Undo to the reset, then to the first drag: the first drag's shape again, bit for bit.
@@ -197,10 +198,7 @@ TEST_F(ShownShapeGui, OpeningOverUnsavedEditsAsksFirst) {
   Editor editor(cylinder_arguments());
   ASSERT_NO_FATAL_FAILURE(until_ready(editor));
   press("g");
-  const Eigen::Vector2f start = grab_pixel();
-  auto before = editor.event_count();
-  drag(start, start + Eigen::Vector2f(100.0f, 0.0f), 8);
-  settled_after(editor, before);
+  drag_and_settle(editor, Eigen::Vector2f::Zero(), Eigen::Vector2f(100.0f, 0.0f), 8);
   const auto moved = recovery_holding(dir.file("recovery.json"), [](const cli::Session& s) { return !s.current.handles.at(0).transform.shift.isZero(); });
   ASSERT_TRUE(moved);
   const auto open_cactus = [&] {
@@ -221,9 +219,8 @@ TEST_F(ShownShapeGui, OpeningOverUnsavedEditsAsksFirst) {
   std::this_thread::sleep_for(500ms);
   EXPECT_EQ(cli::read_session(dir.file("recovery.json")).mesh, moved->mesh) << "the recovery file still holds the cylinder";
   // The edit is still there: undo takes it back.
-  before = editor.event_count();
   press("ctrl+z");
-  ASSERT_TRUE(recovery_holding(dir.file("recovery.json"), [](const cli::Session& s) { return s.current.handles.at(0).transform.shift.isZero(); }));
+  ASSERT_TRUE(recovery_holding(dir.file("recovery.json"), [](const cli::Session& session) { return session.current.handles.at(0).transform.shift.isZero(); }));
   press("ctrl+shift+z");
   ASSERT_TRUE(recovery_holding(dir.file("recovery.json"), [](const cli::Session& s) { return !s.current.handles.at(0).transform.shift.isZero(); }));
   asked_at = open_cactus();
@@ -267,11 +264,8 @@ TEST_F(ShownShapeGui, ASaveIntoAReadOnlyFolderOpensADialogAndWritesNothing) {
   }
   ASSERT_NO_FATAL_FAILURE(until_ready(*editor));
   press("g");
-  const Eigen::Vector2f start = grab_pixel();
-  auto before = editor->event_count();
-  drag(start, start + Eigen::Vector2f(100.0f, 0.0f), 8);
-  settled_after(*editor, before);
-  before = editor->event_count();
+  drag_and_settle(*editor, Eigen::Vector2f::Zero(), Eigen::Vector2f(100.0f, 0.0f), 8);
+  const auto before = editor->event_count();
   press("ctrl+s");
   const json error = editor->wait_for("error", 60s, before);
   EXPECT_NE(error.value("message", "").find("read-only/saved.obj"), std::string::npos) << error.dump();

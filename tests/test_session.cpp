@@ -53,6 +53,19 @@ TEST(Session, MeshNamesAndSizesAreReadOneWayEverywhere) {
   }
 }
 
+// The current stage's result by hand: a fresh Deformer, the paper's update, refined from it until
+// `refinement` says stop; also its status.
+std::pair<Eigen::MatrixXd, RefinementStatus> refined_by_hand(const Mesh& base, const Session& session, const RefinementOptions& refinement) {
+  DeformerOptions options;
+  options.prepare_refinement = true;
+  options.refinement = refinement;
+  Deformer deformer(base, session.current.constraints(), options);
+  Eigen::MatrixXd positions;
+  deformer.deform(session.current.transforms(), positions);
+  deformer.refine(positions, refinement.max_iterations);
+  return {positions, deformer.refinement_status()};
+}
+
 TEST(Session, RoundTripsExactly) {
   const test::TempDir dir;
   Session session = demo_session();
@@ -91,14 +104,10 @@ TEST(Session, ARefinedStageStopsWhereItsSettleTestSays) {
   const Eigen::MatrixXd converged = cli::replay_session(session, base, {});
   session.current.refine_settle = 1e-3;
   const Eigen::MatrixXd settled = cli::replay_session(session, base, {});
-  DeformerOptions options;
-  options.prepare_refinement = true;
-  options.refinement.settle = 1e-3;
-  Deformer deformer(base, session.current.constraints(), options);
-  Eigen::MatrixXd by_hand;
-  deformer.deform(session.current.transforms(), by_hand);
-  deformer.refine(by_hand, RefinementOptions{}.max_iterations);
-  EXPECT_TRUE(deformer.refinement_status().settled);
+  RefinementOptions refinement;
+  refinement.settle = 1e-3;
+  const auto [by_hand, status] = refined_by_hand(base, session, refinement);
+  EXPECT_TRUE(status.settled);
   EXPECT_EQ(settled, by_hand);
   EXPECT_GT((settled - converged).cwiseAbs().maxCoeff(), 0.0) << "the settle test should stop earlier than the energy test";
 }
@@ -112,13 +121,8 @@ TEST(Session, ARefinedStageReplaysAsRefinedAndOlderSessionsAsThePapersMethod) {
   const Eigen::MatrixXd refined = cli::replay_session(session, base, {});
   EXPECT_GT((refined - paper).cwiseAbs().maxCoeff(), 1e-4);
   // A fresh deformer refined by hand from the paper's result gives the same bits.
-  DeformerOptions options;
-  options.prepare_refinement = true;
-  Deformer deformer(base, session.current.constraints(), options);
-  Eigen::MatrixXd by_hand;
-  deformer.deform(session.current.transforms(), by_hand);
-  deformer.refine(by_hand, RefinementOptions{}.max_iterations);
-  EXPECT_TRUE(deformer.refinement_status().converged);
+  const auto [by_hand, status] = refined_by_hand(base, session, RefinementOptions{});
+  EXPECT_TRUE(status.converged);
   EXPECT_EQ(refined, by_hand);
   // Written before refinement existed: no "refine" member, read as the paper's method.
   auto old = cli::to_json(session);
