@@ -38,6 +38,32 @@ def test_the_cactus_demo_equals_the_command_line_bit_for_bit(tmp_path, refine):
     assert np.array_equal(deformer.deform([cactus["transform"]]), expected)
 
 
+def test_a_refined_pose_is_the_same_whatever_poses_came_before():
+    # A drag that reverses past the rest shape, deformed one pose after another by one Deformer,
+    # against a fresh Deformer at each pose: the same positions and energies, bit for bit.
+    cylinder = hdeform.shape("cylinder", 12)
+    arguments = (cylinder["V"], cylinder["F"], cylinder["fixed"], cylinder["handles"])
+    driven = hdeform.Deformer(*arguments, refine="auto")
+    for x in (0.3, 0.6, 0.3, 0.0, -0.3):
+        pose = np.hstack([np.eye(3), [[x], [0.0], [0.0]]])
+        shown = driven.deform(pose)
+        fresh = hdeform.Deformer(*arguments, refine="auto")
+        assert np.array_equal(shown, fresh.deform(pose)), x
+        assert driven.refinement == fresh.refinement, x
+        if x != 0.0:
+            assert driven.refinement["iterations"] > 3 and driven.refinement["converged"], (x, driven.refinement)
+
+
+def test_the_settle_stop_is_the_editors_and_the_command_lines(tmp_path):
+    expected = cli_edit(tmp_path, "--shape", "cactus", "--refine", "auto", "--refine-settle", "1e-4")
+    cactus = hdeform.shape("cactus")
+    deformer = hdeform.Deformer(cactus["V"], cactus["F"], cactus["fixed"], cactus["handles"], refine="auto", refine_settle=1e-4)
+    assert np.array_equal(deformer.deform([cactus["transform"]]), expected)
+    assert deformer.refinement["settled"] and deformer.refinement["largest_step"] <= 1e-4
+    with pytest.raises(ValueError, match="refine_settle"):
+        hdeform.Deformer(cactus["V"], cactus["F"], cactus["fixed"], cactus["handles"], refine="auto", refine_settle=-1.0)
+
+
 @needs_shared
 def test_a_benchmark_case_equals_the_command_line_bit_for_bit(tmp_path):
     base = SHARED / "deformation-benchmark" / "bar"
