@@ -110,13 +110,14 @@ inline constexpr std::pair<const char*, const char*> kShortcuts[] = {
     {"W / H / K", "wireframe / harmonic field / vertex classes"},
     {"P", "profiler: the last updates, iterations and frames by stage"},
     {"F12 / Shift+F12", "screenshot of the view / of the whole window"},
-    {"F1", "this help"},
+    {"F1 / Esc", "this help / close it"},
     {"Ctrl+T", "transfer mode: source and target side by side"},
     {"Transfer: click, click", "a vertex on one mesh, then its counterpart: a marker pair"},
     {"Transfer: drag / Del / Esc", "move a marker / delete the selected pair / cancel"},
     {"Transfer: F5 / Space / Left, Right", "compute / play, pause / previous, next pose"},
     {"Transfer: Ctrl+S, Ctrl+Z", "save the markers, undo a marker change"},
     {"Ctrl+Q", "quit"},
+    {"Unsaved changes? Enter / D / Esc", "save, then go on / discard / cancel"},
 };
 
 inline std::string session_path_for(const std::string& obj_path) {
