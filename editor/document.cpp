@@ -373,7 +373,9 @@ void Document::install_build() {
       refinement_ = result.refinement;
       refinement_ms_ = result.refinement.iterations > 0 ? result.update_ms : 0.0;
       refinement_request_ = base + result.request;
-      refinement_digest_ = result.refinement.converged ? positions_digest(result.positions) : std::string();
+      refinement_finished_ = result.refinement.converged || (result.refinement.iterations > 0 &&
+                                                              result.refinement.iterations >= deformer_->refinement_options().max_iterations);
+      refinement_digest_ = refinement_finished_ ? positions_digest(result.positions) : std::string();
       constexpr std::size_t kKept = 512;
       if (result.refinement.iterations == 0) {
         if (update_timings_.size() < kKept) update_timings_.push_back(deformer_->last_update());
@@ -435,7 +437,7 @@ bool Document::settled() const {
   if (last_published_.load() != last_request_) return false;
   if (!refine_) return true;
   const RefinementView view = refinement();
-  return view.request == last_request_ && view.status.converged;
+  return view.request == last_request_ && view.finished;
 }
 
 void Document::wait_until_ready() {
@@ -490,7 +492,7 @@ std::vector<RefinementTimings> Document::take_refinement_timings() {
 
 Document::RefinementView Document::refinement() const {
   std::lock_guard lock(refinement_mutex_);
-  return {refinement_, refinement_ms_, refinement_request_, refinement_digest_};
+  return {refinement_, refinement_ms_, refinement_request_, refinement_digest_, refinement_finished_};
 }
 
 }  // namespace hdeform::cli

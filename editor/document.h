@@ -127,7 +127,8 @@ class Document {
     RefinementStatus status;
     double iteration_ms = 0.0;
     std::uint64_t request = 0;
-    std::string digest;  // positions_digest of the positions, once converged
+    std::string digest;  // positions_digest of the positions, once finished
+    bool finished = false;  // converged, or stopped at the cap of iterations: nothing more comes
   };
   RefinementView refinement() const;
   // Whether the newest poses have their final shape on screen: solved and, with refinement on,
@@ -211,6 +212,7 @@ class Document {
   double refinement_ms_ = 0.0;
   std::uint64_t refinement_request_ = 0;  // the request the refinement view answers
   std::string refinement_digest_;
+  bool refinement_finished_ = false;
   std::vector<UpdateTimings> update_timings_;          // with refinement_mutex_
   std::vector<RefinementTimings> refinement_timings_;  // with refinement_mutex_
   std::atomic<std::uint64_t> last_published_{0};

@@ -319,15 +319,16 @@ void EditorApp::step() {
     if (document_->refine()) {
       const auto view = document_->refinement();
       const auto& status = view.status;
-      if (status.converged && !refinement_settled_) {
+      if (view.finished && !refinement_settled_) {
         print_json_line({{"event", "refined"},
                          {"iterations", status.iterations},
                          {"energy", status.energy},
                          {"unrefined_energy", status.unrefined_energy},
+                         {"converged", status.converged},
                          {"settled", status.settled},
                          {"positions_digest", view.digest}});
       }
-      refinement_settled_ = status.converged;
+      refinement_settled_ = view.finished;
     } else {
       refinement_settled_ = false;
     }
@@ -433,9 +434,12 @@ void EditorApp::render(ImDrawData* draw_data) {
   }
 }
 
-bool EditorApp::view_moving() const {
+bool EditorApp::view_moving() {
   const bool handle_dragged = dragging_ && !is_paint_tool(tools_.tool);
-  const bool new_solve = document_ && document_->last_published_request() != shown_tag_;
+  // A new solve, or a refinement iteration of the same request (a settling shape moves too).
+  const engine::GeometrySnapshot* newest = exchange_ ? exchange_->acquire() : nullptr;
+  const bool new_solve = (document_ && document_->last_published_request() != shown_tag_) ||
+                         (newest != nullptr && newest->version != renderer_->drawn_geometry_version());
   return handle_dragged || camera_drag_ || ImGui::GetIO().MouseWheel != 0.0f || new_solve;
 }
 

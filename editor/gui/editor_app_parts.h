@@ -431,7 +431,7 @@ class EditorApp {
   void start_proxy();
   void finish_proxy();
   // Whether the geometry moves this frame: a handle dragged, the view turned, a new solve.
-  bool view_moving() const;
+  bool view_moving();
   Clock::time_point build_started_{};
 
   engine::Camera camera_;

@@ -176,10 +176,11 @@ void EditorApp::draw_controls() {
   if (refine) {
     const auto view = document_->refinement();
     const auto& status = view.status;
-    if (status.iterations == 0 && !status.converged) {
+    if (status.iterations == 0 && !view.finished) {
       ImGui::TextDisabled("Refinement: waiting for the update");
     } else {
-      ImGui::Text("Refinement: %d iterations%s", status.iterations, status.converged ? ", settled" : "...");
+      ImGui::Text("Refinement: %d iterations%s", status.iterations,
+                  status.converged ? ", settled" : view.finished ? ", stopped at the cap" : "...");
       ImGui::Text("Energy %.4g (paper's %.4g, %.1f ms each)", status.energy, status.unrefined_energy, view.iteration_ms);
     }
     if (ImGui::IsItemHovered()) {
