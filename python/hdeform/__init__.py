@@ -21,13 +21,14 @@ from ._core import (  # noqa: F401
     render,
     shape,
     transfer,
+    triangulate,
     write_mesh,
 )
 from ._core import _cotangent_laplacian_csc
 
 __all__ = [
     "Deformer", "InputError", "SolveError", "Transform", "correspondence", "cotangent_laplacian", "harmonic_field",
-    "has_render", "read_mesh", "render", "shape", "transfer", "write_mesh",
+    "has_render", "read_mesh", "render", "shape", "transfer", "triangulate", "write_mesh",
 ]
 
 

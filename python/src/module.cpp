@@ -194,7 +194,7 @@ class PyDeformer {
  public:
   PyDeformer(const py::object& positions, const py::object& triangles, const py::object& fixed, const py::object& handles,
              const py::object& roi, const std::string& backend, const py::object& refine, double refine_tolerance, double refine_settle,
-             bool acceleration) {
+             bool acceleration, const py::object& progress) {
     Mesh mesh = mesh_argument(positions, triangles, "mesh");
     EditConstraints constraints;
     constraints.fixed = indices_argument(fixed, "fixed");
@@ -212,23 +212,53 @@ class PyDeformer {
     options.refinement.accelerate = acceleration;
     refine_iterations_ = refine_argument(refine, options.refinement);
     options.prepare_refinement = refine_iterations_ > 0;
+    if (!progress.is_none() && !PyCallable_Check(progress.ptr())) throw py::value_error("progress must be a callable taking a str, or None");
+    // Called from this (the constructing) thread with the GIL released: taken back for the call.
+    ProgressCallback report;
+    if (!progress.is_none()) {
+      report = [&progress](std::string_view stage) {
+        const py::gil_scoped_acquire locked;
+        progress(std::string(stage));
+      };
+    }
     const py::gil_scoped_release unlocked;
-    deformer_ = std::make_unique<Deformer>(std::move(mesh), std::move(constraints), options);
+    deformer_ = std::make_unique<Deformer>(std::move(mesh), std::move(constraints), options, report);
   }
 
-  py::array deform(const py::object& transforms_object) {
+  py::array deform(const py::object& transforms_object, const py::object& refine) {
     const auto transforms = transforms_argument(transforms_object, deformer_->handle_count());
+    const int iterations = refine.is_none() ? refine_iterations_ : refine_argument(refine, deformer_->refinement_options());
     Eigen::MatrixXd positions;
     {
       const py::gil_scoped_release unlocked;
       deformer_->deform(transforms, positions);
-      if (refine_iterations_ > 0) deformer_->refine(positions, refine_iterations_);
+      if (iterations > 0) deformer_->refine(positions, iterations);
+      last_ = positions;
+    }
+    return owning_array(std::move(positions));
+  }
+
+  py::array refine_more(int iterations) {
+    if (last_.rows() == 0) throw py::value_error("refine: deform() first (it gives the edit to refine)");
+    if (iterations < 0) throw py::value_error("refine: iterations must be 0 or more");
+    Eigen::MatrixXd positions;
+    {
+      const py::gil_scoped_release unlocked;
+      deformer_->refine(last_, iterations);
+      positions = last_;
     }
     return owning_array(std::move(positions));
   }
 
   py::array field() const { return owning_array(Eigen::VectorXd(deformer_->field())); }
   std::vector<std::string> warnings() const { return deformer_->warnings(); }
+  double refine_tolerance() const { return deformer_->refinement_options().tolerance; }
+  void set_refine_tolerance(double tolerance) {
+    if (!(tolerance > 0.0 && tolerance < 1.0)) throw py::value_error("refine_tolerance must lie between 0 and 1");
+    RefinementOptions options = deformer_->refinement_options();
+    options.tolerance = tolerance;
+    deformer_->set_refinement_options(options);
+  }
   py::dict refinement() const {
     const auto& status = deformer_->refinement_status();
     py::dict result;
@@ -254,6 +284,7 @@ class PyDeformer {
  private:
   std::unique_ptr<Deformer> deformer_;
   int refine_iterations_ = 0;
+  Eigen::MatrixXd last_;  // the last edit's positions, which refine() goes on from
 };
 
 py::tuple read_mesh_binding(const std::filesystem::path& path) {
@@ -469,12 +500,14 @@ PYBIND11_MODULE(_core, m) {
       .def(py::init([](const py::object& matrix) { return transform_argument(matrix, "matrix"); }), py::arg("matrix"),
            "From a 3x4 matrix [A | t] or a 4x4 homogeneous one")
       .def_static("twist",
-                  [](const std::array<double, 3>& axis, const std::array<double, 3>& point, double degrees, double scale) {
+                  [](const std::array<double, 3>& axis, const std::array<double, 3>& point, double degrees, double scale,
+                     const std::array<double, 3>& shift) {
                     return HandleTransform::about_pivot(Eigen::Vector3d(axis[0], axis[1], axis[2]), Eigen::Vector3d(point[0], point[1], point[2]),
-                                                        degrees * M_PI / 180.0, scale);
+                                                        degrees * M_PI / 180.0, scale, Eigen::Vector3d(shift[0], shift[1], shift[2]));
                   },
-                  py::arg("axis"), py::arg("point"), py::arg("degrees"), py::arg("scale") = 1.0,
-                  "A turn by any angle (720 for two turns) about the line through point along axis, blended by angle")
+                  py::arg("axis"), py::arg("point"), py::arg("degrees"), py::arg("scale") = 1.0, py::arg("shift") = std::array<double, 3>{0, 0, 0},
+                  "A turn by any angle (720 for two turns) about the line through point along axis, blended by angle; then a "
+                  "uniform scale about point and a shift: p -> point + shift + scale R (p - point)")
       .def_property_readonly("matrix", [](const HandleTransform& t) { return owning_array(Eigen::MatrixXd(t.affine())); })
       .def_property_readonly("degrees", [](const HandleTransform& t) { return t.angle * 180.0 / M_PI; })
       .def_property_readonly("scale", [](const HandleTransform& t) { return t.scale; })
@@ -485,22 +518,42 @@ PYBIND11_MODULE(_core, m) {
 
   py::class_<PyDeformer>(m, "Deformer", "The editing engine: set up once per mesh and vertex classes, then deform per edit")
       .def(py::init<const py::object&, const py::object&, const py::object&, const py::object&, const py::object&, const std::string&,
-                    const py::object&, double, double, bool>(),
+                    const py::object&, double, double, bool, const py::object&>(),
            py::arg("V"), py::arg("F"), py::arg("fixed"), py::arg("handles"), py::arg("roi") = py::none(),
            py::arg("backend") = std::string(to_string(default_backend())), py::arg("refine") = 0,
            py::arg("refine_tolerance") = RefinementOptions{}.tolerance, py::arg("refine_settle") = RefinementOptions{}.settle,
-           py::arg("acceleration") = true)
-      .def("deform", &PyDeformer::deform, py::arg("transforms"),
-           "Deformed positions (n x 3) for one transform per handle (a Transform or a 3x4 / 4x4 array); with refine, refined "
-           "from the paper's result, so the same pose gives the same positions whatever was deformed before")
+           py::arg("acceleration") = true, py::arg("progress") = py::none(),
+           "Sets up the solve (Laplacian, factorization, field). refine: as-rigid-as-possible iterations after each "
+           "deform(), a number or 'auto' (until refine_tolerance, or refine_settle when > 0); progress: called with a line "
+           "for each set-up stage")
+      .def("deform", &PyDeformer::deform, py::arg("transforms"), py::arg("refine") = py::none(),
+           "Deformed positions (n x 3) for one transform per handle (a Transform or a 3x4 / 4x4 array); refined as the "
+           "constructor's refine says, or as `refine` (a number or 'auto') says for this call. Refined from the paper's "
+           "result, so the same pose gives the same positions whatever was deformed before")
+      .def("refine", &PyDeformer::refine_more, py::arg("iterations") = 1,
+           "Up to `iterations` more refinement iterations of the last deform() (fewer once converged); its positions (n x 3). "
+           "deform(T, refine=0) then refine() until refinement['converged'] gives the same bits as deform(T, refine='auto')")
       .def_property_readonly("field", &PyDeformer::field, "The harmonic field h: 1 on the handles, 0 on the fixed vertices")
       .def_property_readonly("warnings", &PyDeformer::warnings)
       .def_property_readonly("refinement", &PyDeformer::refinement, "The last edit's as-rigid-as-possible refinement")
+      .def_property("refine_tolerance", &PyDeformer::refine_tolerance, &PyDeformer::set_refine_tolerance,
+                    "Where a refinement until converged stops: the energy falls by less than this fraction in an iteration")
       .def_property_readonly("timings", &PyDeformer::timings, "Set-up and last update, milliseconds")
       .def_property_readonly("vertex_count", &PyDeformer::vertex_count)
       .def_property_readonly("handle_count", &PyDeformer::handle_count);
 
   m.def("read_mesh", &read_mesh_binding, py::arg("path"), "(V, F) from an OBJ, PLY, OFF or STL file");
+  m.def(
+      "triangulate",
+      [](const py::object& positions, const py::object& sizes, const py::object& corners) {
+        const Eigen::MatrixXd points = positions_argument(positions, "V");
+        const Eigen::VectorXi polygon_sizes = integer_argument(sizes, "sizes", 0, "a 1-D integer array of corner counts");
+        const Eigen::VectorXi polygon_corners = integer_argument(corners, "corners", 0, "a 1-D integer array of vertex indices");
+        return owning_array(triangulate_polygons(points, polygon_sizes, polygon_corners));
+      },
+      py::arg("V"), py::arg("sizes"), py::arg("corners"),
+      "Polygons (sizes[p] corners each, their vertex indices one after another in corners) as an (m, 3) int32 array of "
+      "triangles, by the readers' rule: a quad along its shorter diagonal, a larger polygon as a fan from its first corner");
   m.def("write_mesh", &write_mesh_binding, py::arg("path"), py::arg("V"), py::arg("F"), "Writes .obj or .ply, atomically");
   m.def("shape", &shape_binding, py::arg("name"), py::arg("resolution") = kDefaultShapeResolution,
         "A built-in shape and its demo edit: {'V', 'F', 'fixed', 'handles', 'transform'}");

@@ -1,5 +1,9 @@
 #include "polygons.h"
 
+#include <string>
+
+#include "hdeform/errors.h"
+
 namespace hdeform::detail {
 namespace {
 
@@ -37,6 +41,37 @@ void triangulate(const Polygons& polygons, const Eigen::MatrixXd& positions, Eig
     for (std::size_t k = 1; k + 1 < size; ++k) add(corner[0], corner[k], corner[k + 1]);
   }
 }
+
+}  // namespace hdeform::detail
+
+namespace hdeform {
+
+Eigen::MatrixXi triangulate_polygons(const Eigen::MatrixXd& positions, const Eigen::VectorXi& sizes, const Eigen::VectorXi& corners) {
+  detail::Polygons polygons;
+  Eigen::Index at = 0;
+  for (Eigen::Index p = 0; p < sizes.size(); ++p) {
+    const int size = sizes(p);
+    if (size < 3) throw InputError("polygon " + std::to_string(p) + ": " + std::to_string(size) + " corners (at least 3 make a face)");
+    if (at + size > corners.size()) throw InputError("polygon " + std::to_string(p) + ": the polygon sizes add up to more corners than given");
+    for (int k = 0; k < size; ++k) {
+      const int vertex = corners(at + k);
+      if (vertex < 0 || vertex >= positions.rows()) {
+        throw InputError("polygon " + std::to_string(p) + ": vertex " + std::to_string(vertex) + " out of range (" +
+                         std::to_string(positions.rows()) + " vertices)");
+      }
+    }
+    polygons.add(corners.data() + at, static_cast<std::size_t>(size));
+    at += size;
+  }
+  if (at != corners.size()) throw InputError("the polygon sizes add up to " + std::to_string(at) + " corners, not " + std::to_string(corners.size()));
+  Eigen::MatrixXi triangles;
+  detail::triangulate(polygons, positions, triangles);
+  return triangles;
+}
+
+}  // namespace hdeform
+
+namespace hdeform::detail {
 
 Mesh mesh_of(const std::vector<std::array<double, 3>>& points, const Polygons& polygons, std::string_view name) {
   Mesh mesh;

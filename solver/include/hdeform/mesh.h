@@ -26,4 +26,11 @@ void validate_triangles(const Eigen::MatrixXi& triangles, Eigen::Index vertex_co
 // Length of the diagonal of the axis-aligned bounding box (0 for no points).
 double bounding_box_diagonal(const Eigen::MatrixXd& positions);
 
+// Polygons (`sizes[p]` corners each, their vertex indices one polygon after another in `corners`)
+// as triangles, by the rule every mesh reader follows: a quad is split along its shorter diagonal
+// (a tie takes the one from its second corner), a larger polygon into a fan from its first corner.
+// Throws InputError naming the polygon that has fewer than three corners or an index outside
+// [0, positions.rows()), or when the sizes do not add up to the corners.
+Eigen::MatrixXi triangulate_polygons(const Eigen::MatrixXd& positions, const Eigen::VectorXi& sizes, const Eigen::VectorXi& corners);
+
 }  // namespace hdeform
