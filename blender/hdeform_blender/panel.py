@@ -1,0 +1,96 @@
+"""The N-panel tab "hdeform" in the 3D view: the groups, the buttons, the settings and the live
+figures of the active mesh."""
+import bpy
+from bpy.types import Panel
+
+from . import setup_jobs, solver
+
+
+class VIEW3D_PT_hdeform(Panel):
+    bl_label = "Harmonic guidance"
+    bl_idname = "VIEW3D_PT_hdeform"
+    bl_space_type = 'VIEW_3D'
+    bl_region_type = 'UI'
+    bl_category = "hdeform"
+
+    def draw(self, context):
+        layout = self.layout
+        obj = context.active_object
+        if obj is None or obj.type not in {'MESH', 'EMPTY'}:
+            layout.label(text="Select a mesh (or a handle's Empty)")
+            return
+        if obj.type == 'EMPTY':
+            owner = obj.parent if obj.parent is not None and obj.parent.type == 'MESH' else None
+            layout.label(text=("Handle of " + owner.name) if owner is not None else "Not an hdeform handle", icon='EMPTY_ARROWS')
+            if owner is None:
+                return
+            obj = owner
+        settings = obj.hdeform
+
+        groups = layout.box()
+        groups.label(text="Vertex groups", icon='GROUP_VERTEX')
+        fixed = obj.vertex_groups.get(solver.FIXED_GROUP)
+        groups.label(text=solver.FIXED_GROUP + (": present" if fixed is not None else ": missing (the vertices that stay)"),
+                     icon='CHECKMARK' if fixed is not None else 'ERROR')
+        handle_groups = solver.handle_groups(obj)
+        for group in handle_groups:
+            item = next((item for item in settings.handles if item.group == group.name), None)
+            row = groups.row()
+            row.label(text=group.name, icon='EMPTY_ARROWS')
+            row.label(text=item.empty.name if item is not None and item.empty is not None else "(no Empty yet)")
+        if not handle_groups:
+            groups.label(text=solver.HANDLE_PREFIX + "1: missing (a handle's vertices)", icon='ERROR')
+        groups.prop_search(settings, "roi_group", obj, "vertex_groups")
+        groups.operator("hdeform.add_handle", icon='ADD')
+
+        row = layout.row(align=True)
+        row.operator("hdeform.bind", text="Bind" if not settings.bound else "Bind again", icon='LINKED')
+        row.operator("hdeform.update", icon='FILE_REFRESH')
+        row = layout.row(align=True)
+        row.operator("hdeform.apply", icon='CHECKMARK')
+        row.operator("hdeform.reset", icon='LOOP_BACK')
+
+        layout.prop(settings, "refine")
+        sub = layout.row()
+        sub.enabled = settings.refine
+        sub.prop(settings, "refine_tolerance")
+        layout.prop(settings, "backend")
+
+        status = layout.box()
+        stage = setup_jobs.running(obj)
+        error = settings.get("last_error")
+        bound_object = solver.bound(obj)
+        if stage is not None:
+            status.label(text="Setting up: " + stage + "...", icon='SORTTIME')
+        elif error:
+            for line in wrap(error, 48):
+                status.label(text=line, icon='ERROR')
+        elif not settings.bound:
+            status.label(text="Not bound: paint the groups, then Bind", icon='INFO')
+        elif bound_object is None:
+            status.label(text="Bound; the solver is set up at the next move", icon='INFO')
+        else:
+            status.label(text="Update: %.1f ms" % bound_object.update_ms)
+            if settings.refine:
+                state = "refining..." if bound_object.refining else "settled"
+                status.label(text="Refinement: %d iterations, %s" % (bound_object.iterations, state))
+                status.label(text="Energy %.4g (paper's %.4g)" % (bound_object.energy, bound_object.unrefined_energy))
+
+
+def wrap(text, width):
+    lines, line = [], ""
+    for word in text.split():
+        if line and len(line) + 1 + len(word) > width:
+            lines.append(line)
+            line = word
+        else:
+            line = (line + " " + word).strip()
+    return lines + ([line] if line else [])
+
+
+def register():
+    bpy.utils.register_class(VIEW3D_PT_hdeform)
+
+
+def unregister():
+    bpy.utils.unregister_class(VIEW3D_PT_hdeform)

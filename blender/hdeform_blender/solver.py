@@ -1,0 +1,357 @@
+"""Between Blender's data and the hdeform module: the set-up read from a mesh object's vertex groups,
+the Deformer kept per object (one factorization for every move and every frame), the handles'
+transforms from their Empties, and the result written to the shape key "hdeform".
+
+Every refinement starts from the paper's result for its pose (hdeform's rule), so the shape key of
+a pose is the same whatever moves came before it: live, after an undo, on any frame of an
+animation, after reopening the file.
+"""
+import time
+import uuid
+
+import bpy
+import numpy as np
+
+from . import handle_frames
+
+FIXED_GROUP = "hdeform_fixed"
+HANDLE_PREFIX = "hdeform_handle_"
+ROI_GROUP = "hdeform_roi"
+SHAPE_KEY = "hdeform"
+# On the object, beside the shape key (so an undo restores both together): the pose the key holds,
+# and whether it is refined to its stop (else the refinement goes on from the paper's result).
+POSE_PROPERTY = "hdeform_pose"
+FINAL_PROPERTY = "hdeform_final"
+
+
+class SetupError(Exception):
+    """A set-up that cannot be solved; the message says what to change, in Blender's terms."""
+
+
+def module():
+    try:
+        import hdeform
+    except ImportError as error:
+        raise SetupError("the hdeform Python module cannot be imported (" + str(error) + "): put the folder that holds it "
+                         "(.../site-packages of hdeform's install) in the add-on's preferences, or on PYTHONPATH") from error
+    return hdeform
+
+
+def handle_groups(obj):
+    """The object's handle groups, hdeform_handle_1, hdeform_handle_2, ... in number order."""
+    found = []
+    for group in obj.vertex_groups:
+        number = group.name[len(HANDLE_PREFIX):]
+        if group.name.startswith(HANDLE_PREFIX) and number.isdigit():
+            found.append((int(number), group))
+    return [group for _, group in sorted(found, key=lambda pair: pair[0])]
+
+
+def rest_positions(obj):
+    """The rest shape: the Basis key when the mesh has shape keys, else its vertices (float64 of
+    Blender's float32 coordinates)."""
+    mesh = obj.data
+    coordinates = np.empty(len(mesh.vertices) * 3, dtype=np.float32)
+    if mesh.shape_keys is not None:
+        mesh.shape_keys.reference_key.data.foreach_get("co", coordinates)
+    else:
+        mesh.vertices.foreach_get("co", coordinates)
+    return coordinates.reshape(-1, 3).astype(np.float64)
+
+
+def triangles(obj, positions):
+    """The faces as triangles, by hdeform's rule for every mesh reader (quads along the shorter
+    diagonal, larger n-gons as fans): the same triangles the OBJ of this mesh gives."""
+    mesh = obj.data
+    sizes = np.empty(len(mesh.polygons), dtype=np.int32)
+    mesh.polygons.foreach_get("loop_total", sizes)
+    corners = np.empty(len(mesh.loops), dtype=np.int32)
+    mesh.loops.foreach_get("vertex_index", corners)
+    # Polygons' loops are stored one polygon after another, in polygon order.
+    return module().triangulate(positions, sizes, corners)
+
+
+def group_members(obj, groups):
+    """For each vertex group given, its vertices with a weight above 0 (sorted indices)."""
+    wanted = {group.index: [] for group in groups}
+    for vertex in obj.data.vertices:
+        for element in vertex.groups:
+            members = wanted.get(element.group)
+            if members is not None and element.weight > 0.0:
+                members.append(vertex.index)
+    return [np.array(wanted[group.index], dtype=np.int64) for group in groups]
+
+
+class Setup:
+    """What a Deformer is built from, read on Blender's main thread."""
+
+    def __init__(self, obj, settings):
+        if obj.type != 'MESH':
+            raise SetupError(obj.name + " is not a mesh")
+        fixed_group = obj.vertex_groups.get(FIXED_GROUP)
+        if fixed_group is None:
+            raise SetupError("no vertex group '" + FIXED_GROUP + "' on " + obj.name + ": assign the vertices that stay where they "
+                             "are (the sinks) to it")
+        self.handle_groups = handle_groups(obj)
+        if not self.handle_groups:
+            raise SetupError("no vertex group '" + HANDLE_PREFIX + "1' on " + obj.name + ": assign a handle's vertices to it, or "
+                             "select them and use Add handle from selection")
+        roi_group = obj.vertex_groups.get(settings.roi_group) if settings.roi_group else None
+        if settings.roi_group and roi_group is None:
+            raise SetupError("no vertex group '" + settings.roi_group + "' for the region of interest on " + obj.name)
+        groups = [fixed_group] + self.handle_groups + ([roi_group] if roi_group is not None else [])
+        members = group_members(obj, groups)
+        self.fixed = members[0]
+        self.handles = members[1:1 + len(self.handle_groups)]
+        self.roi = members[-1] if roi_group is not None else None
+        if len(self.fixed) == 0:
+            raise SetupError("vertex group '" + FIXED_GROUP + "' is empty: assign the vertices that stay where they are to it")
+        for group, vertices in zip(self.handle_groups, self.handles):
+            if len(vertices) == 0:
+                raise SetupError("vertex group '" + group.name + "' is empty: assign its handle's vertices to it, or remove it")
+        self.handle_names = [group.name for group in self.handle_groups]
+        self.positions = rest_positions(obj)
+        self.triangles = triangles(obj, self.positions)
+        self.backend = settings.backend
+        self.tolerance = settings.refine_tolerance
+
+
+def build(setup, progress=None):
+    """The Deformer (factorization, field); on any thread (the module releases the GIL). Refuses
+    what the add-on will not deform: loose vertices and non-manifold geometry, with the solver's
+    own findings."""
+    hdeform = module()
+    try:
+        deformer = hdeform.Deformer(setup.positions, setup.triangles, setup.fixed, setup.handles, roi=setup.roi, backend=setup.backend,
+                                    refine="auto", refine_tolerance=setup.tolerance, progress=progress)
+    except (ValueError, RuntimeError) as error:
+        raise SetupError(str(error)) from error
+    refused = []
+    for finding in ("non-manifold edges", "non-manifold vertices", "unreferenced vertices"):
+        refused += [line for line in deformer.warnings if finding in line][:1]
+    if refused:
+        raise SetupError("; ".join(refused) + " (Select > Select All by Trait > Non Manifold or Loose Geometry finds them; "
+                         "Mesh > Clean Up > Delete Loose removes loose ones)")
+    return deformer
+
+
+class Bound:
+    """An object's Deformer and where its refinement stands."""
+
+    def __init__(self, setup, deformer):
+        self.setup = setup
+        self.deformer = deformer
+        self.pose = None  # the signature of the pose last solved
+        self.refining = False
+        self.update_ms = 0.0
+        self.iterations = 0
+        self.energy = 0.0
+        self.unrefined_energy = 0.0
+
+
+_bound = {}  # key(object): Bound
+
+
+def key(obj):
+    """The object's key in the add-on's caches: an id it keeps in its settings (an undo or a reload
+    keeps it too), with its name (a copy has the same id but another name)."""
+    settings = obj.hdeform
+    if "uid" not in settings:
+        settings["uid"] = uuid.uuid4().hex
+    return settings["uid"], obj.name
+
+
+def bound(obj):
+    return _bound.get(key(obj))
+
+
+def install(obj, bound_object):
+    _bound[key(obj)] = bound_object
+
+
+def forget_all():
+    """After a file is loaded: every Deformer is built anew when needed."""
+    _bound.clear()
+
+
+def forget(obj):
+    _bound.pop(key(obj), None)
+
+
+# ---- handles -----------------------------------------------------------------------------------
+
+def matrix(values):
+    return np.array(values, dtype=np.float64).reshape(4, 4)
+
+
+def empty_frame(obj, empty):
+    """The Empty's frame in the mesh object's space."""
+    return handle_frames.frame_in_mesh_space(np.array(obj.matrix_world, dtype=np.float64), np.array(empty.matrix_world, dtype=np.float64))
+
+
+def rotation_values(empty):
+    """The Empty's rotation as its own mode stores it, four numbers (Euler: x, y, z, 0)."""
+    if empty.rotation_mode == 'QUATERNION':
+        return tuple(empty.rotation_quaternion)
+    if empty.rotation_mode == 'AXIS_ANGLE':
+        return tuple(empty.rotation_axis_angle)
+    return tuple(empty.rotation_euler) + (0.0,)
+
+
+def turn_since_bind(obj, item, empty):
+    """(axis in mesh space, angle) when the Empty turned about one rotation axis alone since bind, by
+    any angle; else None (the frames' matrix says it, within half a turn)."""
+    if empty.rotation_mode != item.bind_rotation_mode or empty.rotation_mode == 'QUATERNION':
+        return None
+    now, then = rotation_values(empty), tuple(item.bind_rotation)
+    if empty.rotation_mode == 'AXIS_ANGLE':
+        if tuple(now[1:]) != tuple(then[1:]) or now[0] == then[0]:
+            return None
+        axis, angle = np.array(now[1:], dtype=np.float64), float(now[0]) - float(then[0])
+    else:
+        changed = [k for k in range(3) if now[k] != then[k]]
+        if len(changed) != 1:
+            return None
+        angle = float(now[changed[0]]) - float(then[changed[0]])
+        axis = handle_frames.euler_turn_axis(empty.rotation_mode, [float(value) for value in then[:3]], changed[0])
+    # From the Empty's parent space (its world matrix without its own location, rotation, scale)
+    # to the mesh's.
+    parent = np.array(empty.matrix_world, dtype=np.float64) @ np.linalg.inv(np.array(empty.matrix_basis, dtype=np.float64))
+    in_mesh = np.linalg.solve(np.array(obj.matrix_world, dtype=np.float64)[:3, :3], parent[:3, :3] @ axis)
+    length = np.linalg.norm(in_mesh)
+    return (in_mesh / length, angle) if length > 0.0 else None
+
+
+def handle_items(obj):
+    """The settings' handle items in the order of the handle groups, refusing a group without its
+    Empty (bind again)."""
+    settings = obj.hdeform
+    by_group = {item.group: item for item in settings.handles}
+    items = []
+    for group in handle_groups(obj):
+        item = by_group.get(group.name)
+        if item is None or item.empty is None:
+            raise SetupError("handle group '" + group.name + "' has no Empty: bind again")
+        items.append(item)
+    return items
+
+
+def transforms(obj):
+    """One hdeform.Transform per handle, and the pose's signature (the numbers it came from)."""
+    hdeform = module()
+    result, signature = [], []
+    for item in handle_items(obj):
+        empty = item.empty
+        frame = empty_frame(obj, empty)
+        turn = turn_since_bind(obj, item, empty)
+        result.append(handle_frames.handle_transform(hdeform, matrix(item.bind_frame), frame, turn))
+        signature.append(repr((frame.round(12).tolist(), rotation_values(empty), empty.rotation_mode)))
+    return result, "|".join(signature)
+
+
+# ---- the result --------------------------------------------------------------------------------
+
+def ensure_shape_keys(obj):
+    """Basis (the rest shape) and "hdeform" (the result, at full value)."""
+    if obj.data.shape_keys is None:
+        obj.shape_key_add(name="Basis", from_mix=False)
+    key = obj.data.shape_keys.key_blocks.get(SHAPE_KEY)
+    if key is None:
+        key = obj.shape_key_add(name=SHAPE_KEY, from_mix=False)
+    key.value = 1.0
+    return key
+
+
+def write(obj, positions, signature, final):
+    key = obj.data.shape_keys.key_blocks[SHAPE_KEY]
+    key.data.foreach_set("co", np.ascontiguousarray(positions, dtype=np.float32).ravel())
+    obj[POSE_PROPERTY] = signature
+    obj[FINAL_PROPERTY] = final
+    obj.data.update()
+
+
+def read_key(obj):
+    key = obj.data.shape_keys.key_blocks[SHAPE_KEY]
+    coordinates = np.empty(len(key.data) * 3, dtype=np.float32)
+    key.data.foreach_get("co", coordinates)
+    return coordinates.reshape(-1, 3)
+
+
+def note_status(bound_object):
+    status = bound_object.deformer.refinement
+    bound_object.iterations = status["iterations"]
+    bound_object.energy = status["energy"]
+    bound_object.unrefined_energy = status["unrefined_energy"]
+
+
+def update(obj, wait, force=False):
+    """Brings the shape key up to date with the Empties now. The paper's update at once; with
+    refinement, the iterations until its stop, now (`wait`) or on Blender's timer. Nothing to do
+    when the key already holds this pose, refined (after an undo, say), unless `force`."""
+    bound_object = bound(obj)
+    settings = obj.hdeform
+    started = time.perf_counter()
+    poses, signature = transforms(obj)
+    holds = obj.get(POSE_PROPERTY) == signature
+    if not force and holds and (obj.get(FINAL_PROPERTY, False) or not settings.refine):
+        bound_object.pose = signature
+        return False
+    if not force and bound_object.pose == signature and bound_object.refining and not wait:
+        return False  # the refinement of this pose is under way
+    deformer = bound_object.deformer
+    if deformer.refine_tolerance != settings.refine_tolerance:
+        deformer.refine_tolerance = settings.refine_tolerance
+    if settings.refine and wait:
+        positions = deformer.deform(poses, refine="auto")
+        note_status(bound_object)
+    else:
+        positions = deformer.deform(poses, refine=0)
+        bound_object.iterations = 0
+    final = not settings.refine or wait
+    write(obj, positions, signature, final)
+    bound_object.pose = signature
+    bound_object.refining = not final
+    bound_object.update_ms = (time.perf_counter() - started) * 1000.0
+    if bound_object.refining:
+        start_refinement_timer()
+    return True
+
+
+# ---- refinement on Blender's timer: a few iterations between events, interrupted by the next move
+
+REFINEMENT_SLICE = 0.04  # seconds of iterations per timer call
+
+
+def refine_step():
+    """Runs iterations of every object still refining for about REFINEMENT_SLICE, writes their keys;
+    the seconds until the next call, or None when all have settled."""
+    deadline = time.perf_counter() + REFINEMENT_SLICE
+    pending = False
+    for obj in bpy.data.objects:
+        bound_object = bound(obj) if obj.type == 'MESH' and obj.hdeform.bound else None
+        if bound_object is None or not bound_object.refining:
+            continue
+        positions = None
+        while time.perf_counter() < deadline:
+            positions = bound_object.deformer.refine(1)
+            if bound_object.deformer.refinement["converged"] or bound_object.deformer.refinement["iterations"] >= 1000:
+                bound_object.refining = False
+                break
+        note_status(bound_object)
+        if positions is not None:
+            write(obj, positions, bound_object.pose, not bound_object.refining)
+        pending = pending or bound_object.refining
+    redraw_panels()
+    return 0.0 if pending else None
+
+
+def redraw_panels():
+    for window in bpy.context.window_manager.windows:
+        for area in window.screen.areas:
+            if area.type == 'VIEW_3D':
+                area.tag_redraw()
+
+
+def start_refinement_timer():
+    if not bpy.app.timers.is_registered(refine_step):
+        bpy.app.timers.register(refine_step, first_interval=0.0)

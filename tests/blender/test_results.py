@@ -1,0 +1,116 @@
+"""The add-on's shape key against the hdeform module and `hdeform edit` on the same mesh, groups and
+handle transform, with and without refinement: the cactus (its demo's source and sink, with
+n-gons: quads and a pentagon fan among its faces), and the Buddha with the shared fixed and handle
+sets when ../shared/meshes is there. Undo after a move restores the previous key exactly."""
+import numpy as np
+
+import bpy
+import hdeform
+from mathutils import Matrix
+
+import support
+
+
+def bound_cactus(refine):
+    support.empty_scene()
+    cactus = hdeform.shape("cactus", 24)
+    # Quads from pairs of the shape's triangles where they share an edge in order, to have n-gons:
+    # the add-on must triangulate them as hdeform's OBJ reader does.
+    faces = [list(f) for f in cactus["F"]]
+    quads = []
+    for k in range(0, len(faces) - 1, 2):
+        a, b = faces[k], faces[k + 1]
+        shared = set(a) & set(b)
+        if len(shared) == 2:
+            (a_only,) = set(a) - shared
+            (b_only,) = set(b) - shared
+            i = a.index(a_only)
+            quads.append([a[i], a[(i + 1) % 3], b_only, a[(i + 2) % 3]])
+        else:
+            quads += [a, b]
+    obj = support.mesh_object("cactus", cactus["V"], quads)
+    assert any(len(p.vertices) == 4 for p in obj.data.polygons), "no quads to triangulate"
+    support.assign(obj, "hdeform_fixed", cactus["fixed"])
+    support.assign(obj, "hdeform_handle_1", cactus["handles"][0])
+    obj.hdeform.refine = refine
+    assert bpy.ops.hdeform.bind() == {'FINISHED'}
+    return obj, cactus
+
+
+def check(obj, fixed, handles, refine, what, cli=True):
+    item = obj.hdeform.handles[0]
+    matrix = support.handle_transform(obj, item)
+    positions, triangles = support.rest_and_triangles(obj)
+    module = hdeform.Deformer(positions, triangles, fixed, handles, refine="auto" if refine else 0).deform([hdeform.Transform(matrix)])
+    key = support.shape_key(obj)
+    support.expect_same_as_float32(key, module, what + ": the module")
+    if cli:
+        support.expect_same_as_float32(key, support.cli_edit(obj, fixed, handles, [matrix], refine), what + ": hdeform edit")
+    assert np.abs(key - positions).max() > 1e-3 * np.abs(positions).max(), what + ": nothing moved"
+    for v in fixed:
+        assert np.array_equal(key[v], positions[v].astype(np.float32)), f"{what}: fixed vertex {v} moved"
+
+
+for refine in (False, True):
+    obj, cactus = bound_cactus(refine)
+    empty = obj.hdeform.handles[0].empty
+    # Turned about two axes: the frames' matrix decides (test_twist_and_reload turns about one).
+    empty.location.x += 0.15
+    empty.location.z -= 0.05
+    empty.rotation_euler.y = 0.4
+    empty.rotation_euler.x = 0.1
+    bpy.context.view_layer.update()
+    assert bpy.ops.hdeform.update(wait=True) == {'FINISHED'}
+    check(obj, cactus["fixed"], cactus["handles"], refine, f"cactus, refine={refine}")
+support.passed("the cactus, with and without refinement, as the module and hdeform edit")
+
+# Undo after a move: the previous key, exactly.
+obj, cactus = bound_cactus(True)
+empty = obj.hdeform.handles[0].empty
+bpy.ops.ed.undo_push(message="bound")
+empty.location.x += 0.1
+bpy.context.view_layer.update()
+bpy.ops.hdeform.update(wait=True)
+bpy.ops.ed.undo_push(message="first move")
+first = support.shape_key(obj).copy()
+empty.location.y += 0.12
+bpy.context.view_layer.update()
+bpy.ops.hdeform.update(wait=True)
+bpy.ops.ed.undo_push(message="second move")
+second = support.shape_key(bpy.data.objects["cactus"]).copy()
+assert not np.array_equal(first, second), "the second move changed nothing"
+bpy.ops.ed.undo()
+obj = bpy.data.objects["cactus"]
+assert np.array_equal(support.shape_key(obj), first), "undo did not restore the first move's key"
+bpy.ops.hdeform.update(wait=True)  # the handles are back too: the same key again, from the solver
+assert np.array_equal(support.shape_key(obj), first), "after undo the solver gives another key for the same pose"
+bpy.ops.ed.redo()
+assert np.array_equal(support.shape_key(bpy.data.objects["cactus"]), second), "redo did not bring the second move back"
+support.passed("undo and redo restore the keys exactly")
+
+# The Buddha with the shared sets and transform.
+if not (support.SHARED / "buddha").is_dir():
+    print(f"SKIPPED the Buddha: {support.SHARED} is absent (set HDEFORM_SHARED_MESHES)")
+else:
+    folder = support.SHARED / "buddha"
+    V, F = hdeform.read_mesh(str(folder / "buddha-206k.obj"))
+    fixed = np.loadtxt(folder / "buddha-206k-fixed.txt", dtype=np.int64)
+    handle = np.loadtxt(folder / "buddha-206k-handle.txt", dtype=np.int64)
+    transform = np.loadtxt(folder / "buddha-206k-transform.txt")
+    for refine in (False, True):
+        support.empty_scene()
+        obj = support.mesh_object("buddha", V, F)
+        support.assign(obj, "hdeform_fixed", fixed)
+        support.assign(obj, "hdeform_handle_1", handle)
+        obj.hdeform.refine = refine
+        assert bpy.ops.hdeform.bind() == {'FINISHED'}
+        item = obj.hdeform.handles[0]
+        # The Empty moved by the scenario's transform (the mesh object sits at the origin): its world
+        # matrix becomes T times it.
+        world = np.eye(4)
+        world[:3, :4] = transform
+        item.empty.matrix_world = Matrix((world @ np.array(item.empty.matrix_world)).tolist())
+        bpy.context.view_layer.update()
+        bpy.ops.hdeform.update(wait=True)
+        check(obj, fixed, [handle], refine, f"buddha-206k, refine={refine}")
+    support.passed("the Buddha, with and without refinement, as the module and hdeform edit")
