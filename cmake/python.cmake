@@ -27,3 +27,5 @@ if(TARGET hdeform_engine)
   set_target_properties(hdeform_engine PROPERTIES POSITION_INDEPENDENT_CODE ON)
 endif()
 add_subdirectory(python)
+# The Blender add-on uses the module.
+add_subdirectory(blender)

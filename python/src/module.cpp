@@ -235,6 +235,7 @@ class PyDeformer {
       if (iterations > 0) deformer_->refine(positions, iterations);
       last_ = positions;
     }
+    refined_ = iterations > 0;
     return owning_array(std::move(positions));
   }
 
@@ -247,6 +248,7 @@ class PyDeformer {
       deformer_->refine(last_, iterations);
       positions = last_;
     }
+    refined_ = true;
     return owning_array(std::move(positions));
   }
 
@@ -260,8 +262,18 @@ class PyDeformer {
     deformer_->set_refinement_options(options);
   }
   py::dict refinement() const {
-    const auto& status = deformer_->refinement_status();
     py::dict result;
+    if (!refined_) {
+      // The last deform() was the paper's update alone: nothing refined, no energy computed.
+      result["iterations"] = 0;
+      result["energy"] = py::none();
+      result["unrefined_energy"] = py::none();
+      result["converged"] = false;
+      result["settled"] = false;
+      result["largest_step"] = py::none();
+      return result;
+    }
+    const auto& status = deformer_->refinement_status();
     result["iterations"] = status.iterations;
     result["energy"] = status.energy;
     result["unrefined_energy"] = status.unrefined_energy;
@@ -285,6 +297,7 @@ class PyDeformer {
   std::unique_ptr<Deformer> deformer_;
   int refine_iterations_ = 0;
   Eigen::MatrixXd last_;  // the last edit's positions, which refine() goes on from
+  bool refined_ = false;  // the last edit has been refined (else its refinement_status is an older edit's)
 };
 
 py::tuple read_mesh_binding(const std::filesystem::path& path) {
@@ -535,7 +548,9 @@ PYBIND11_MODULE(_core, m) {
            "deform(T, refine=0) then refine() until refinement['converged'] gives the same bits as deform(T, refine='auto')")
       .def_property_readonly("field", &PyDeformer::field, "The harmonic field h: 1 on the handles, 0 on the fixed vertices")
       .def_property_readonly("warnings", &PyDeformer::warnings)
-      .def_property_readonly("refinement", &PyDeformer::refinement, "The last edit's as-rigid-as-possible refinement")
+      .def_property_readonly("refinement", &PyDeformer::refinement,
+                             "The last edit's as-rigid-as-possible refinement: iterations, energy and unrefined_energy (None "
+                             "before any iteration of it), converged, settled, largest_step")
       .def_property("refine_tolerance", &PyDeformer::refine_tolerance, &PyDeformer::set_refine_tolerance,
                     "Where a refinement until converged stops: the energy falls by less than this fraction in an iteration")
       .def_property_readonly("timings", &PyDeformer::timings, "Set-up and last update, milliseconds")

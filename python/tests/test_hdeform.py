@@ -54,6 +54,57 @@ def test_a_refined_pose_is_the_same_whatever_poses_came_before():
             assert driven.refinement["iterations"] > 3 and driven.refinement["converged"], (x, driven.refinement)
 
 
+def test_refining_a_few_iterations_at_a_time_gives_the_same_bits_as_at_once():
+    # What a caller that shows a drag live does: the paper's update now, iterations between events.
+    cylinder = hdeform.shape("cylinder", 12)
+    stages = []
+    deformer = hdeform.Deformer(cylinder["V"], cylinder["F"], cylinder["fixed"], cylinder["handles"], progress=stages.append)
+    assert any("factoring" in stage for stage in stages) and all(isinstance(stage, str) for stage in stages), stages
+    pose = np.hstack([np.eye(3), [[0.4], [0.0], [-0.1]]])
+    at_once = deformer.deform(pose, refine="auto")
+    status = dict(deformer.refinement)
+    paper = deformer.deform(pose, refine=0)
+    assert deformer.refinement["iterations"] == 0
+    steps = 0
+    while not deformer.refinement["converged"]:
+        shown = deformer.refine(2)
+        steps += 1
+        assert steps < 500
+    assert np.array_equal(shown, at_once) and deformer.refinement == status
+    assert not np.array_equal(paper, at_once)
+    with pytest.raises(ValueError, match="refine_tolerance"):
+        deformer.refine_tolerance = 2.0
+    deformer.refine_tolerance = 1e-3
+    loose = deformer.deform(pose, refine="auto")
+    assert deformer.refinement["iterations"] < status["iterations"] and not np.array_equal(loose, at_once)
+    with pytest.raises(ValueError, match="progress"):
+        hdeform.Deformer(cylinder["V"], cylinder["F"], cylinder["fixed"], cylinder["handles"], progress="not callable")
+    with pytest.raises(ValueError, match="deform"):
+        hdeform.Deformer(cylinder["V"], cylinder["F"], cylinder["fixed"], cylinder["handles"]).refine()
+
+
+def test_a_twist_with_a_shift_moves_its_pivot():
+    twist = hdeform.Transform.twist(axis=(0, 0, 1), point=(1, 0, 0), degrees=90, scale=2.0, shift=(0, 0, 3))
+    # p -> point + shift + scale R (p - point): (2, 0, 0) goes to (1, 0, 3) + 2 (0, 1, 0).
+    assert np.allclose(twist.matrix @ [2, 0, 0, 1], [1, 2, 3], atol=1e-12)
+    assert twist.degrees == 90.0 and twist.scale == 2.0
+
+
+def test_polygons_are_triangulated_as_the_obj_reader_does(tmp_path):
+    V = np.array([[0, 0, 0], [2, 0, 0], [2, 1, 0], [0, 1, 0], [1, 2, 0], [-1, 1.5, 0], [-1, 0.5, 0]], dtype=float)
+    faces = [[0, 1, 2, 3], [3, 2, 4], [0, 3, 5, 6]]
+    (tmp_path / "poly.obj").write_text("".join(f"v {x} {y} {z}\n" for x, y, z in V) + "".join("f " + " ".join(str(v + 1) for v in f) + "\n" for f in faces))
+    _, F = hdeform.read_mesh(tmp_path / "poly.obj")
+    ours = hdeform.triangulate(V, [len(f) for f in faces], [v for f in faces for v in f])
+    assert np.array_equal(ours, F)
+    # The quad 0-1-2-3 is 2 by 1: split along a diagonal of length sqrt(5) either way (a tie: 1-3).
+    assert ours.shape == (5, 3)
+    with pytest.raises(ValueError, match="polygon 0"):
+        hdeform.triangulate(V, [2], [0, 1])
+    with pytest.raises(ValueError, match="out of range"):
+        hdeform.triangulate(V, [3], [0, 1, 9])
+
+
 def test_the_settle_stop_is_the_editors_and_the_command_lines(tmp_path):
     expected = cli_edit(tmp_path, "--shape", "cactus", "--refine", "auto", "--refine-settle", "1e-4")
     cactus = hdeform.shape("cactus")
