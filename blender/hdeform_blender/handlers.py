@@ -34,11 +34,11 @@ def ensure_solver(obj, wait):
     return None
 
 
-def follow(scene, wait):
+def follow(scene, wait, depsgraph=None):
     for obj in bound_meshes(scene):
         try:
             if ensure_solver(obj, wait) is not None:
-                solver.update(obj, wait=wait)
+                solver.update(obj, wait=wait, depsgraph=depsgraph)
         except solver.SetupError as error:
             obj.hdeform["last_error"] = str(error)
 
@@ -50,9 +50,10 @@ def on_depsgraph_update(scene, _depsgraph):
 
 
 @persistent
-def on_frame_change(scene, _depsgraph):
-    # Playback and rendering: each frame's shape, refined, before it is drawn.
-    follow(scene, wait=True)
+def on_frame_change(scene, depsgraph):
+    # Playback and rendering: each frame's shape, refined, before it is drawn. A render animates
+    # the Empties in its own depsgraph: their evaluated copies say where they are.
+    follow(scene, wait=True, depsgraph=depsgraph)
 
 
 @persistent

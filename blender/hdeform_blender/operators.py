@@ -10,7 +10,10 @@ from . import setup_jobs, solver
 
 
 def active_mesh(context):
+    """The active mesh, or the mesh a handle's Empty (the active object) hangs from."""
     obj = context.active_object
+    if obj is not None and obj.type == 'EMPTY' and obj.parent is not None and obj.parent.type == 'MESH':
+        obj = obj.parent
     return obj if obj is not None and obj.type == 'MESH' else None
 
 
@@ -61,7 +64,6 @@ def finish_bind(context, obj, setup, deformer, record_all=False):
     for index in reversed(range(len(settings.handles))):
         if settings.handles[index].group not in setup.handle_names:
             settings.handles.remove(index)
-    context.view_layer.update()  # world matrices of new Empties
     for item in settings.handles:
         if record_all or not item.recorded:
             record_bind(obj, item)
@@ -162,13 +164,16 @@ class HDEFORM_OT_add_handle(Operator):
 
     @classmethod
     def poll(cls, context):
-        return active_mesh(context) is not None
+        obj = active_mesh(context)
+        if obj is None or obj.mode != 'EDIT':
+            cls.poll_message_set("Select the handle's vertices in Edit Mode")
+            return False
+        return True
 
     def execute(self, context):
         obj = active_mesh(context)
-        editing = obj.mode == 'EDIT'
-        if editing:
-            obj.update_from_editmode()
+        editing = True
+        obj.update_from_editmode()
         selected = np.zeros(len(obj.data.vertices), dtype=bool)
         obj.data.vertices.foreach_get("select", selected)
         vertices = np.flatnonzero(selected)
@@ -184,7 +189,6 @@ class HDEFORM_OT_add_handle(Operator):
         item = obj.hdeform.handles.add()
         item.group = name
         item.empty = new_handle_empty(context, obj, name, vertices, solver.rest_positions(obj))
-        context.view_layer.update()
         record_bind(obj, item)
         if editing:
             bpy.ops.object.mode_set(mode='EDIT')

@@ -30,17 +30,18 @@ class VIEW3D_PT_hdeform(Panel):
         groups = layout.box()
         groups.label(text="Vertex groups", icon='GROUP_VERTEX')
         fixed = obj.vertex_groups.get(solver.FIXED_GROUP)
-        groups.label(text=solver.FIXED_GROUP + (": present" if fixed is not None else ": missing (the vertices that stay)"),
-                     icon='CHECKMARK' if fixed is not None else 'ERROR')
+        groups.label(text=solver.FIXED_GROUP + ("" if fixed is not None else ": missing"), icon='CHECKMARK' if fixed is not None else 'ERROR')
         handle_groups = solver.handle_groups(obj)
         for group in handle_groups:
             item = next((item for item in settings.handles if item.group == group.name), None)
-            row = groups.row()
-            row.label(text=group.name, icon='EMPTY_ARROWS')
-            row.label(text=item.empty.name if item is not None and item.empty is not None else "(no Empty yet)")
+            groups.label(text=group.name, icon='EMPTY_ARROWS')
+            if item is not None:
+                groups.prop(item, "empty", text="")
+            else:
+                groups.label(text="(its Empty comes with Bind)", icon='BLANK1')
         if not handle_groups:
-            groups.label(text=solver.HANDLE_PREFIX + "1: missing (a handle's vertices)", icon='ERROR')
-        groups.prop_search(settings, "roi_group", obj, "vertex_groups")
+            groups.label(text=solver.HANDLE_PREFIX + "1: missing", icon='ERROR')
+        groups.prop_search(settings, "roi_group", obj, "vertex_groups", text="ROI")
         groups.operator("hdeform.add_handle", icon='ADD')
 
         row = layout.row(align=True)
@@ -66,15 +67,19 @@ class VIEW3D_PT_hdeform(Panel):
             for line in wrap(error, 48):
                 status.label(text=line, icon='ERROR')
         elif not settings.bound:
-            status.label(text="Not bound: paint the groups, then Bind", icon='INFO')
+            for k, line in enumerate(wrap("Not bound: assign the groups, then Bind", 28)):
+                status.label(text=line, icon='INFO' if k == 0 else 'BLANK1')
         elif bound_object is None:
-            status.label(text="Bound; the solver is set up at the next move", icon='INFO')
+            for k, line in enumerate(wrap("Bound; its solver is set up at the next move", 28)):
+                status.label(text=line, icon='INFO' if k == 0 else 'BLANK1')
         else:
             status.label(text="Update: %.1f ms" % bound_object.update_ms)
             if settings.refine:
-                state = "refining..." if bound_object.refining else "settled"
-                status.label(text="Refinement: %d iterations, %s" % (bound_object.iterations, state))
-                status.label(text="Energy %.4g (paper's %.4g)" % (bound_object.energy, bound_object.unrefined_energy))
+                status.label(text="%d iterations, %s" % (bound_object.iterations, "refining..." if bound_object.refining else "settled"))
+                if bound_object.iterations > 0:
+                    # Rounding leaves the rest pose's energy a hair below zero.
+                    status.label(text="Energy %.4g" % max(bound_object.energy, 0.0))
+                    status.label(text="(paper's %.4g)" % max(bound_object.unrefined_energy, 0.0))
 
 
 def wrap(text, width):

@@ -60,9 +60,7 @@ def _poll():
         obj = bpy.data.objects.get(job_key[1])
         if obj is not None and solver.key(obj) == job_key:
             job.finish(obj, job.setup, job.deformer, job.error)
-    for area in (bpy.context.screen.areas if bpy.context.screen is not None else []):
-        if area.type == 'VIEW_3D':
-            area.tag_redraw()  # the panel's progress line
+    solver.redraw_panels()  # the panel's progress line
     return 0.1 if _jobs else None
 
 

@@ -6,6 +6,7 @@ Every refinement starts from the paper's result for its pose (hdeform's rule), s
 a pose is the same whatever moves came before it: live, after an undo, on any frame of an
 animation, after reopening the file.
 """
+import threading
 import time
 import uuid
 
@@ -67,6 +68,8 @@ def triangles(obj, positions):
     mesh.polygons.foreach_get("loop_total", sizes)
     corners = np.empty(len(mesh.loops), dtype=np.int32)
     mesh.loops.foreach_get("vertex_index", corners)
+    if np.all(sizes == 3):
+        return corners.reshape(-1, 3)  # triangles already (a scan, say): nothing to split
     # Polygons' loops are stored one polygon after another, in polygon order.
     return module().triangulate(positions, sizes, corners)
 
@@ -114,6 +117,7 @@ class Setup:
         self.triangles = triangles(obj, self.positions)
         self.backend = settings.backend
         self.tolerance = settings.refine_tolerance
+        self.refine = settings.refine
 
 
 def build(setup, progress=None):
@@ -122,8 +126,9 @@ def build(setup, progress=None):
     own findings."""
     hdeform = module()
     try:
+        # With refinement on, its set-up comes with the rest (else with its first iteration).
         deformer = hdeform.Deformer(setup.positions, setup.triangles, setup.fixed, setup.handles, roi=setup.roi, backend=setup.backend,
-                                    refine="auto", refine_tolerance=setup.tolerance, progress=progress)
+                                    refine="auto" if setup.refine else 0, refine_tolerance=setup.tolerance, progress=progress)
     except (ValueError, RuntimeError) as error:
         raise SetupError(str(error)) from error
     refused = []
@@ -136,29 +141,66 @@ def build(setup, progress=None):
 
 
 class Bound:
-    """An object's Deformer and where its refinement stands."""
+    """An object's Deformer and where its refinement stands. The refinement runs on a worker
+    thread, an iteration at a time under `lock` (the Deformer serves one caller at a time); a move
+    stops it after the iteration in flight."""
 
     def __init__(self, setup, deformer):
         self.setup = setup
         self.deformer = deformer
+        self.lock = threading.Lock()
         self.pose = None  # the signature of the pose last solved
         self.refining = False
+        self.worker = None
+        self.stop = threading.Event()
+        self.latest = None  # (positions, finished) from the worker, not yet written to the key
         self.update_ms = 0.0
         self.iterations = 0
         self.energy = 0.0
         self.unrefined_energy = 0.0
 
+    def stop_refinement(self):
+        if self.worker is not None:
+            self.stop.set()
+            self.worker.join()
+            self.worker = None
+        self.refining = False
+        self.latest = None
+
+    def start_refinement(self):
+        self.stop = threading.Event()
+        self.refining = True
+        self.worker = threading.Thread(target=self._refine, args=(self.stop,), daemon=True)
+        self.worker.start()
+
+    def _refine(self, stop):
+        while not stop.is_set():
+            with self.lock:
+                positions = self.deformer.refine(1)
+                status = self.deformer.refinement
+                finished = status["converged"] or status["iterations"] >= MAX_ITERATIONS
+                self.iterations, self.energy, self.unrefined_energy = status["iterations"], status["energy"], status["unrefined_energy"]
+                self.latest = (positions, finished)
+            if finished:
+                return
+
+    def take_latest(self):
+        with self.lock:
+            latest, self.latest = self.latest, None
+        return latest
+
 
 _bound = {}  # key(object): Bound
 
 
-def key(obj):
+def key(obj, create=False):
     """The object's key in the add-on's caches: an id it keeps in its settings (an undo or a reload
-    keeps it too), with its name (a copy has the same id but another name)."""
+    keeps it too), with its name (a copy has the same id but another name). Made when a solver is
+    installed (`create`): drawing a panel may not write to the object."""
     settings = obj.hdeform
-    if "uid" not in settings:
+    if create and "uid" not in settings:
         settings["uid"] = uuid.uuid4().hex
-    return settings["uid"], obj.name
+    return settings.get("uid", ""), obj.name
 
 
 def bound(obj):
@@ -166,16 +208,20 @@ def bound(obj):
 
 
 def install(obj, bound_object):
-    _bound[key(obj)] = bound_object
+    _bound[key(obj, create=True)] = bound_object
 
 
 def forget_all():
     """After a file is loaded: every Deformer is built anew when needed."""
+    for bound_object in _bound.values():
+        bound_object.stop_refinement()
     _bound.clear()
 
 
 def forget(obj):
-    _bound.pop(key(obj), None)
+    bound_object = _bound.pop(key(obj), None)
+    if bound_object is not None:
+        bound_object.stop_refinement()
 
 
 # ---- handles -----------------------------------------------------------------------------------
@@ -184,9 +230,19 @@ def matrix(values):
     return np.array(values, dtype=np.float64).reshape(4, 4)
 
 
+def parent_in_mesh_space(obj, empty):
+    """The frame the Empty's own location, rotation and scale act in, in the mesh object's space:
+    its parent inverse when it hangs from the mesh itself (exact, from its own values, with no
+    scene update needed), else from the world matrices."""
+    if empty.parent == obj and empty.parent_type == 'OBJECT':
+        return np.array(empty.matrix_parent_inverse, dtype=np.float64)
+    world = np.array(empty.matrix_world, dtype=np.float64) @ np.linalg.inv(np.array(empty.matrix_basis, dtype=np.float64))
+    return handle_frames.frame_in_mesh_space(np.array(obj.matrix_world, dtype=np.float64), world)
+
+
 def empty_frame(obj, empty):
     """The Empty's frame in the mesh object's space."""
-    return handle_frames.frame_in_mesh_space(np.array(obj.matrix_world, dtype=np.float64), np.array(empty.matrix_world, dtype=np.float64))
+    return parent_in_mesh_space(obj, empty) @ np.array(empty.matrix_basis, dtype=np.float64)
 
 
 def rotation_values(empty):
@@ -214,10 +270,7 @@ def turn_since_bind(obj, item, empty):
             return None
         angle = float(now[changed[0]]) - float(then[changed[0]])
         axis = handle_frames.euler_turn_axis(empty.rotation_mode, [float(value) for value in then[:3]], changed[0])
-    # From the Empty's parent space (its world matrix without its own location, rotation, scale)
-    # to the mesh's.
-    parent = np.array(empty.matrix_world, dtype=np.float64) @ np.linalg.inv(np.array(empty.matrix_basis, dtype=np.float64))
-    in_mesh = np.linalg.solve(np.array(obj.matrix_world, dtype=np.float64)[:3, :3], parent[:3, :3] @ axis)
+    in_mesh = parent_in_mesh_space(obj, empty)[:3, :3] @ axis
     length = np.linalg.norm(in_mesh)
     return (in_mesh / length, angle) if length > 0.0 else None
 
@@ -236,12 +289,14 @@ def handle_items(obj):
     return items
 
 
-def transforms(obj):
-    """One hdeform.Transform per handle, and the pose's signature (the numbers it came from)."""
+def transforms(obj, depsgraph=None):
+    """One hdeform.Transform per handle, and the pose's signature (the numbers it came from). With
+    a depsgraph, the Empties as it evaluated them (a render's frame animates its own copies, not
+    the file's objects)."""
     hdeform = module()
     result, signature = [], []
     for item in handle_items(obj):
-        empty = item.empty
+        empty = item.empty if depsgraph is None else item.empty.evaluated_get(depsgraph)
         frame = empty_frame(obj, empty)
         turn = turn_since_bind(obj, item, empty)
         result.append(handle_frames.handle_transform(hdeform, matrix(item.bind_frame), frame, turn))
@@ -277,72 +332,68 @@ def read_key(obj):
     return coordinates.reshape(-1, 3)
 
 
-def note_status(bound_object):
-    status = bound_object.deformer.refinement
-    bound_object.iterations = status["iterations"]
-    bound_object.energy = status["energy"]
-    bound_object.unrefined_energy = status["unrefined_energy"]
+MAX_ITERATIONS = 1000  # the cap of a refinement "until converged", as hdeform's
 
 
-def update(obj, wait, force=False):
-    """Brings the shape key up to date with the Empties now. The paper's update at once; with
-    refinement, the iterations until its stop, now (`wait`) or on Blender's timer. Nothing to do
-    when the key already holds this pose, refined (after an undo, say), unless `force`."""
+def update(obj, wait, force=False, depsgraph=None):
+    """Brings the shape key up to date with the Empties now (as `depsgraph` evaluated them, when
+    given). The paper's update at once; with refinement, the iterations until its stop, now
+    (`wait`) or on a worker whose results a timer writes to the key. Nothing to do when the key
+    already holds this pose, refined (after an undo, say), unless `force`."""
     bound_object = bound(obj)
     settings = obj.hdeform
     started = time.perf_counter()
-    poses, signature = transforms(obj)
+    poses, signature = transforms(obj, depsgraph)
     holds = obj.get(POSE_PROPERTY) == signature
     if not force and holds and (obj.get(FINAL_PROPERTY, False) or not settings.refine):
         bound_object.pose = signature
         return False
-    if not force and bound_object.pose == signature and bound_object.refining and not wait:
+    if not force and not wait and bound_object.pose == signature and bound_object.refining:
         return False  # the refinement of this pose is under way
+    bound_object.stop_refinement()
     deformer = bound_object.deformer
     if deformer.refine_tolerance != settings.refine_tolerance:
         deformer.refine_tolerance = settings.refine_tolerance
     if settings.refine and wait:
         positions = deformer.deform(poses, refine="auto")
-        note_status(bound_object)
+        status = deformer.refinement
+        bound_object.iterations, bound_object.energy, bound_object.unrefined_energy = status["iterations"], status["energy"], status["unrefined_energy"]
     else:
         positions = deformer.deform(poses, refine=0)
         bound_object.iterations = 0
     final = not settings.refine or wait
     write(obj, positions, signature, final)
     bound_object.pose = signature
-    bound_object.refining = not final
     bound_object.update_ms = (time.perf_counter() - started) * 1000.0
-    if bound_object.refining:
-        start_refinement_timer()
+    if not final:
+        bound_object.start_refinement()
+        if not bpy.app.timers.is_registered(show_refinement):
+            bpy.app.timers.register(show_refinement, first_interval=REFINEMENT_FRAME)
     return True
 
 
-# ---- refinement on Blender's timer: a few iterations between events, interrupted by the next move
+# A refining shape is written to its key at most this often (seconds): each write redraws the mesh.
+REFINEMENT_FRAME = 0.1
 
-REFINEMENT_SLICE = 0.04  # seconds of iterations per timer call
 
-
-def refine_step():
-    """Runs iterations of every object still refining for about REFINEMENT_SLICE, writes their keys;
-    the seconds until the next call, or None when all have settled."""
-    deadline = time.perf_counter() + REFINEMENT_SLICE
+def show_refinement():
+    """On Blender's timer: writes what the workers refined since the last call to the keys; the
+    seconds until the next call, or None once every object has settled."""
     pending = False
     for obj in bpy.data.objects:
         bound_object = bound(obj) if obj.type == 'MESH' and obj.hdeform.bound else None
         if bound_object is None or not bound_object.refining:
             continue
-        positions = None
-        while time.perf_counter() < deadline:
-            positions = bound_object.deformer.refine(1)
-            if bound_object.deformer.refinement["converged"] or bound_object.deformer.refinement["iterations"] >= 1000:
+        latest = bound_object.take_latest()
+        if latest is not None:
+            positions, finished = latest
+            write(obj, positions, bound_object.pose, finished)
+            if finished:
                 bound_object.refining = False
-                break
-        note_status(bound_object)
-        if positions is not None:
-            write(obj, positions, bound_object.pose, not bound_object.refining)
+                bound_object.worker = None
         pending = pending or bound_object.refining
     redraw_panels()
-    return 0.0 if pending else None
+    return REFINEMENT_FRAME if pending else None
 
 
 def redraw_panels():
@@ -350,8 +401,3 @@ def redraw_panels():
         for area in window.screen.areas:
             if area.type == 'VIEW_3D':
                 area.tag_redraw()
-
-
-def start_refinement_timer():
-    if not bpy.app.timers.is_registered(refine_step):
-        bpy.app.timers.register(refine_step, first_interval=0.0)

@@ -69,10 +69,11 @@ def rest_and_triangles(obj):
 
 
 def handle_transform(obj, item):
-    """Written out here, not taken from the add-on: the Empty's frame now after its frame at bind,
-    both in the mesh's space, as a 3x4 matrix."""
-    mesh_world = np.array(obj.matrix_world, dtype=np.float64)
-    now = np.linalg.solve(mesh_world, np.array(item.empty.matrix_world, dtype=np.float64))
+    """Written out here, not taken from the add-on: the Empty's frame now (it hangs from the mesh:
+    its parent inverse times its own location, rotation and scale) after its frame at bind, as a
+    3x4 matrix."""
+    assert item.empty.parent == obj, "the tests' Empties hang from their mesh"
+    now = np.array(item.empty.matrix_parent_inverse, dtype=np.float64) @ np.array(item.empty.matrix_basis, dtype=np.float64)
     bind = np.array(item.bind_frame, dtype=np.float64).reshape(4, 4)
     return (now @ np.linalg.inv(bind))[:3, :4]
 

@@ -105,11 +105,11 @@ else:
         obj.hdeform.refine = refine
         assert bpy.ops.hdeform.bind() == {'FINISHED'}
         item = obj.hdeform.handles[0]
-        # The Empty moved by the scenario's transform (the mesh object sits at the origin): its world
-        # matrix becomes T times it.
-        world = np.eye(4)
-        world[:3, :4] = transform
-        item.empty.matrix_world = Matrix((world @ np.array(item.empty.matrix_world)).tolist())
+        # The Empty moved by the scenario's transform (in the mesh's space, where the Empty's own
+        # values act: it hangs from the mesh with no parent inverse).
+        moved = np.eye(4)
+        moved[:3, :4] = transform
+        item.empty.matrix_basis = Matrix((moved @ np.array(item.empty.matrix_basis)).tolist())
         bpy.context.view_layer.update()
         bpy.ops.hdeform.update(wait=True)
         check(obj, fixed, [handle], refine, f"buddha-206k, refine={refine}")
