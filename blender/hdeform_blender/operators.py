@@ -110,23 +110,35 @@ class HDEFORM_OT_bind(Operator):
         obj, setup = self.read(context)
         if setup is None:
             return {'CANCELLED'}
-
-        def finish(obj, setup, deformer, error):
-            if error is not None:
-                obj.hdeform["last_error"] = error
-                print("hdeform: " + obj.name + ": " + error)
-                return
-            obj.hdeform.pop("last_error", None)
-            try:
-                finish_bind(bpy.context, obj, setup, deformer)
-            except solver.SetupError as failure:
-                obj.hdeform["last_error"] = str(failure)
-            bpy.ops.ed.undo_push(message="hdeform bind")
-
+        self.job = setup_jobs.start(obj, setup)
+        if self.job is None:
+            self.report({'WARNING'}, obj.name + " is being set up already")
+            return {'CANCELLED'}
         obj.hdeform.pop("last_error", None)
-        setup_jobs.start(obj, setup, finish)
-        self.report({'INFO'}, "Setting up " + obj.name + " in the background")
-        # The bind's own changes are pushed by `finish`: nothing to undo here yet.
+        self.timer = context.window_manager.event_timer_add(0.1, window=context.window)
+        context.window_manager.modal_handler_add(self)
+        return {'RUNNING_MODAL'}
+
+    def modal(self, context, event):
+        """The interface goes on while the worker sets the solver up; then the bind is finished
+        here, and reported in Blender's way."""
+        if event.type != 'TIMER' or not self.job.done.is_set():
+            return {'PASS_THROUGH'}
+        context.window_manager.event_timer_remove(self.timer)
+        setup_jobs.take(self.job)
+        obj = bpy.data.objects.get(self.job.key[1])
+        error = self.job.error
+        if obj is not None and error is None:
+            try:
+                finish_bind(context, obj, self.job.setup, self.job.deformer)
+            except solver.SetupError as failure:
+                error = str(failure)
+        if error is not None:
+            if obj is not None:
+                obj.hdeform["last_error"] = error
+            self.report({'ERROR'}, error)
+            return {'CANCELLED'}
+        self.report({'INFO'}, "Bound " + obj.name + ": " + str(len(self.job.setup.handles)) + " handle(s)")
         return {'FINISHED'}
 
 

@@ -62,10 +62,11 @@ class VIEW3D_PT_hdeform(Panel):
         error = settings.get("last_error")
         bound_object = solver.bound(obj)
         if stage is not None:
-            status.label(text="Setting up: " + stage + "...", icon='SORTTIME')
+            for k, line in enumerate(wrap("Setting up: " + stage + "...", 28)):
+                status.label(text=line, icon='SORTTIME' if k == 0 else 'BLANK1')
         elif error:
-            for line in wrap(error, 48):
-                status.label(text=line, icon='ERROR')
+            for k, line in enumerate(wrap(error, 28)):
+                status.label(text=line, icon='ERROR' if k == 0 else 'BLANK1')
         elif not settings.bound:
             for k, line in enumerate(wrap("Not bound: assign the groups, then Bind", 28)):
                 status.label(text=line, icon='INFO' if k == 0 else 'BLANK1')

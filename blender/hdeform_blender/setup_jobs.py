@@ -13,7 +13,7 @@ class Job:
     def __init__(self, obj, setup, finish):
         self.key = solver.key(obj)
         self.setup = setup
-        self.finish = finish  # finish(obj, setup, deformer or None, error or None), on the main thread
+        self.finish = finish  # finish(obj, setup, deformer or None, error or None), on the main thread; or None
         self.stage = "reading the mesh"
         self.deformer = None
         self.error = None
@@ -41,20 +41,27 @@ def running(obj):
     return job.stage if job is not None else None
 
 
-def start(obj, setup, finish):
-    """Builds the object's solver on a worker; `finish` runs on the main thread when it is done."""
+def start(obj, setup, finish=None):
+    """Builds the object's solver on a worker and returns the job (None when one runs already);
+    `finish` runs on the main thread when it is done, else the caller takes the job (take())."""
     if solver.key(obj) in _jobs:
-        return
+        return None
     job = Job(obj, setup, finish)
     _jobs[job.key] = job
     job.thread.start()
     if not bpy.app.timers.is_registered(_poll):
         bpy.app.timers.register(_poll, first_interval=0.05)
+    return job
+
+
+def take(job):
+    """A finished job whose caller finishes it (the Bind operator, to report in Blender's way)."""
+    _jobs.pop(job.key, None)
 
 
 def _poll():
     for job_key, job in list(_jobs.items()):
-        if not job.done.is_set():
+        if not job.done.is_set() or job.finish is None:
             continue
         del _jobs[job_key]
         obj = bpy.data.objects.get(job_key[1])
