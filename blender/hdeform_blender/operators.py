@@ -9,6 +9,17 @@ from mathutils import Matrix
 from . import setup_jobs, solver
 
 
+def reporting_setup_errors(execute):
+    """An operator's execute whose SetupError becomes Blender's error report (nothing changed)."""
+    def reported(self, context):
+        try:
+            return execute(self, context)
+        except solver.SetupError as error:
+            self.report({'ERROR'}, str(error))
+            return {'CANCELLED'}
+    return reported
+
+
 def active_mesh(context):
     """The active mesh, or the mesh a handle's Empty (the active object) hangs from."""
     obj = context.active_object
@@ -83,32 +94,22 @@ class HDEFORM_OT_bind(Operator):
     def poll(cls, context):
         return active_mesh(context) is not None and context.mode == 'OBJECT'
 
-    def read(self, context):
-        obj = active_mesh(context)
-        try:
-            return obj, solver.Setup(obj, obj.hdeform)
-        except solver.SetupError as error:
-            self.report({'ERROR'}, str(error))
-            return obj, None
-
+    @reporting_setup_errors
     def execute(self, context):
-        obj, setup = self.read(context)
-        if setup is None:
-            return {'CANCELLED'}
-        try:
-            deformer = solver.build(setup)
-            finish_bind(context, obj, setup, deformer)
-        except solver.SetupError as error:
-            self.report({'ERROR'}, str(error))
-            return {'CANCELLED'}
+        obj = active_mesh(context)
+        setup = solver.Setup(obj, obj.hdeform)
+        finish_bind(context, obj, setup, solver.build(setup))
         self.report({'INFO'}, "Bound " + obj.name + ": " + str(len(setup.handles)) + " handle(s)")
         return {'FINISHED'}
 
     def invoke(self, context, event):
         if bpy.app.background:
             return self.execute(context)
-        obj, setup = self.read(context)
-        if setup is None:
+        obj = active_mesh(context)
+        try:
+            setup = solver.Setup(obj, obj.hdeform)
+        except solver.SetupError as error:
+            self.report({'ERROR'}, str(error))
             return {'CANCELLED'}
         self.job = setup_jobs.start(obj, setup)
         if self.job is None:
@@ -155,16 +156,13 @@ class HDEFORM_OT_update(Operator):
         obj = active_mesh(context)
         return obj is not None and obj.hdeform.bound
 
+    @reporting_setup_errors
     def execute(self, context):
         obj = active_mesh(context)
-        try:
-            if solver.bound(obj) is None:
-                setup = solver.Setup(obj, obj.hdeform)
-                solver.install(obj, solver.Bound(setup, solver.build(setup)))
-            solver.update(obj, wait=self.wait)
-        except solver.SetupError as error:
-            self.report({'ERROR'}, str(error))
-            return {'CANCELLED'}
+        if solver.bound(obj) is None:
+            setup = solver.Setup(obj, obj.hdeform)
+            solver.install(obj, solver.Bound(setup, solver.build(setup)))
+        solver.update(obj, wait=self.wait)
         return {'FINISHED'}
 
 
@@ -184,7 +182,6 @@ class HDEFORM_OT_add_handle(Operator):
 
     def execute(self, context):
         obj = active_mesh(context)
-        editing = True
         obj.update_from_editmode()
         selected = np.zeros(len(obj.data.vertices), dtype=bool)
         obj.data.vertices.foreach_get("select", selected)
@@ -194,18 +191,14 @@ class HDEFORM_OT_add_handle(Operator):
             return {'CANCELLED'}
         numbers = [int(group.name[len(solver.HANDLE_PREFIX):]) for group in solver.handle_groups(obj)]
         name = solver.HANDLE_PREFIX + str(max(numbers, default=0) + 1)
-        if editing:
-            bpy.ops.object.mode_set(mode='OBJECT')
-        group = obj.vertex_groups.new(name=name)
-        group.add(vertices.tolist(), 1.0, 'REPLACE')
+        solver.forget(obj)  # set up again with the new handle at the next move
+        bpy.ops.object.mode_set(mode='OBJECT')  # vertex groups and Empties are changed outside Edit Mode
+        obj.vertex_groups.new(name=name).add(vertices.tolist(), 1.0, 'REPLACE')
         item = obj.hdeform.handles.add()
         item.group = name
         item.empty = new_handle_empty(context, obj, name, vertices, solver.rest_positions(obj))
         record_bind(obj, item)
-        if editing:
-            bpy.ops.object.mode_set(mode='EDIT')
-        if obj.hdeform.bound:
-            solver.forget(obj)  # the next move sets the solver up with the new handle
+        bpy.ops.object.mode_set(mode='EDIT')
         self.report({'INFO'}, "Added " + name + " (" + str(len(vertices)) + " vertices)" + ("" if obj.hdeform.bound else "; Bind to deform"))
         return {'FINISHED'}
 
@@ -221,17 +214,16 @@ class HDEFORM_OT_apply(Operator):
         obj = active_mesh(context)
         return obj is not None and obj.hdeform.bound and obj.data.shape_keys is not None and context.mode == 'OBJECT'
 
+    @reporting_setup_errors
     def execute(self, context):
         obj = active_mesh(context)
         result = solver.read_key(obj)
+        # The solver for the new rest shape first: a failure leaves everything as it was.
+        setup = solver.Setup(obj, obj.hdeform)
+        setup.positions = result.astype(np.float64)
+        deformer = solver.build(setup)
         obj.data.shape_keys.reference_key.data.foreach_set("co", result.ravel())
         obj.data.vertices.foreach_set("co", result.ravel())
-        try:
-            setup = solver.Setup(obj, obj.hdeform)
-            deformer = solver.build(setup)
-        except solver.SetupError as error:
-            self.report({'ERROR'}, str(error))
-            return {'CANCELLED'}
         finish_bind(context, obj, setup, deformer, record_all=True)
         self.report({'INFO'}, "Applied: the result is the rest shape")
         return {'FINISHED'}

@@ -204,7 +204,15 @@ def key(obj, create=False):
 
 
 def bound(obj):
-    return _bound.get(key(obj))
+    """The object's solver, or None, also when its set-up no longer fits the object (a handle group
+    added or removed, vertices added): then it is forgotten, to be set up again."""
+    bound_object = _bound.get(key(obj))
+    if bound_object is None:
+        return None
+    if [group.name for group in handle_groups(obj)] != bound_object.setup.handle_names or len(obj.data.vertices) != len(bound_object.setup.positions):
+        forget(obj)
+        return None
+    return bound_object
 
 
 def install(obj, bound_object):

@@ -40,6 +40,19 @@ def mesh_object(name, positions, faces):
     return obj
 
 
+def bound_shape(name, resolution, refine=True, faces=None):
+    """A fresh scene with hdeform's built-in shape `name` as a mesh object (`faces` instead of its
+    triangles when given), its demo's sink and handle as the add-on's groups, bound."""
+    empty_scene()
+    shape = hdeform.shape(name, resolution)
+    obj = mesh_object(name, shape["V"], shape["F"] if faces is None else faces)
+    assign(obj, "hdeform_fixed", shape["fixed"])
+    assign(obj, "hdeform_handle_1", shape["handles"][0])
+    obj.hdeform.refine = refine
+    assert bpy.ops.hdeform.bind() == {'FINISHED'}
+    return obj, shape
+
+
 def assign(obj, group_name, vertices):
     group = obj.vertex_groups.get(group_name) or obj.vertex_groups.new(name=group_name)
     group.add(list(map(int, vertices)), 1.0, 'REPLACE')

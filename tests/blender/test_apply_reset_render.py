@@ -14,12 +14,7 @@ import hdeform
 
 import support
 
-support.empty_scene()
-cactus = hdeform.shape("cactus", 16)
-obj = support.mesh_object("cactus", cactus["V"], cactus["F"])
-support.assign(obj, "hdeform_fixed", cactus["fixed"])
-support.assign(obj, "hdeform_handle_1", cactus["handles"][0])
-assert bpy.ops.hdeform.bind() == {'FINISHED'}
+obj, cactus = support.bound_shape("cactus", 16)
 rest = support.vertices(obj).copy()
 empty = obj.hdeform.handles[0].empty
 empty.location.x += 0.2
@@ -52,13 +47,36 @@ bpy.ops.hdeform.update(wait=True)
 assert np.abs(support.shape_key(obj) - moved).max() <= 1e-6, "after Apply the handles where they are should change nothing"
 support.passed("Apply makes the result the rest shape, the handles staying where they are")
 
+# Add handle from selection (Edit Mode): the group, its Empty at the selection's centroid, and the
+# next move deforms with both handles.
+bpy.ops.object.mode_set(mode='OBJECT')
+chosen = [v.index for v in obj.data.vertices if v.co.z > 0.9 * max(u.co.z for u in obj.data.vertices)]  # the top
+for vertex in obj.data.vertices:
+    vertex.select = vertex.index in chosen
+for element in list(obj.data.edges) + list(obj.data.polygons):
+    element.select = False  # else Edit Mode selects the vertices of selected faces too
+bpy.ops.object.mode_set(mode='EDIT')
+assert bpy.ops.hdeform.add_handle() == {'FINISHED'}
+bpy.ops.object.mode_set(mode='OBJECT')
+group = obj.vertex_groups.get("hdeform_handle_2")
+assert group is not None, "no group hdeform_handle_2"
+members = sorted(v.index for v in obj.data.vertices if any(g.group == group.index for g in v.groups))
+assert members == sorted(chosen), f"the group holds {len(members)} vertices, {len(chosen)} were selected"
+
+second = next(item for item in obj.hdeform.handles if item.group == "hdeform_handle_2")
+centroid = support.vertices(obj)[chosen].mean(axis=0)
+assert np.allclose(np.array(second.empty.location), centroid, atol=1e-5), "the new Empty is not at the selection's centroid"
+before = support.shape_key(obj).copy()
+second.empty.location.z += 0.1
+bpy.context.view_layer.update()
+bpy.context.view_layer.objects.active = obj
+assert bpy.ops.hdeform.update(wait=True) == {'FINISHED'}
+after = support.shape_key(obj)
+assert np.abs(after[chosen] - before[chosen] - np.array([0.0, 0.0, 0.1], dtype=np.float32)).max() < 1e-5, "the second handle did not move its vertices"
+support.passed("Add handle from selection makes a handle that deforms")
+
 # Rendering an animation from the command line: the add-on enabled, each frame's shape rendered.
-support.empty_scene()
-obj = support.mesh_object("cactus", cactus["V"], cactus["F"])
-support.assign(obj, "hdeform_fixed", cactus["fixed"])
-support.assign(obj, "hdeform_handle_1", cactus["handles"][0])
-obj.hdeform.refine = False
-assert bpy.ops.hdeform.bind() == {'FINISHED'}
+obj, _ = support.bound_shape("cactus", 16, refine=False)
 empty = obj.hdeform.handles[0].empty
 start = tuple(empty.location)
 empty.keyframe_insert("location", frame=1)

@@ -12,7 +12,6 @@ import support
 
 
 def bound_cactus(refine):
-    support.empty_scene()
     cactus = hdeform.shape("cactus", 24)
     # Quads from pairs of the shape's triangles where they share an edge in order, to have n-gons:
     # the add-on must triangulate them as hdeform's OBJ reader does.
@@ -28,12 +27,8 @@ def bound_cactus(refine):
             quads.append([a[i], a[(i + 1) % 3], b_only, a[(i + 2) % 3]])
         else:
             quads += [a, b]
-    obj = support.mesh_object("cactus", cactus["V"], quads)
+    obj, cactus = support.bound_shape("cactus", 24, refine, faces=quads)
     assert any(len(p.vertices) == 4 for p in obj.data.polygons), "no quads to triangulate"
-    support.assign(obj, "hdeform_fixed", cactus["fixed"])
-    support.assign(obj, "hdeform_handle_1", cactus["handles"][0])
-    obj.hdeform.refine = refine
-    assert bpy.ops.hdeform.bind() == {'FINISHED'}
     return obj, cactus
 
 

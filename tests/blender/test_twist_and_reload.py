@@ -12,13 +12,7 @@ import hdeform
 
 import support
 
-support.empty_scene()
-bar = hdeform.shape("bar", 24)
-obj = support.mesh_object("bar", bar["V"], bar["F"])
-support.assign(obj, "hdeform_fixed", bar["fixed"])
-support.assign(obj, "hdeform_handle_1", bar["handles"][0])
-obj.hdeform.refine = True
-assert bpy.ops.hdeform.bind() == {'FINISHED'}
+obj, bar = support.bound_shape("bar", 24)
 empty = obj.hdeform.handles[0].empty
 scene = bpy.context.scene
 scene.frame_start, scene.frame_end = 1, 9
