@@ -360,15 +360,18 @@ def update(obj, wait, force=False, depsgraph=None):
         return False  # the refinement of this pose is under way
     bound_object.stop_refinement()
     deformer = bound_object.deformer
-    if deformer.refine_tolerance != settings.refine_tolerance:
-        deformer.refine_tolerance = settings.refine_tolerance
-    if settings.refine and wait:
-        positions = deformer.deform(poses, refine="auto")
-        status = deformer.refinement
-        bound_object.iterations, bound_object.energy, bound_object.unrefined_energy = status["iterations"], status["energy"], status["unrefined_energy"]
-    else:
-        positions = deformer.deform(poses, refine=0)
-        bound_object.iterations = 0
+    try:
+        if deformer.refine_tolerance != settings.refine_tolerance:
+            deformer.refine_tolerance = settings.refine_tolerance
+        if settings.refine and wait:
+            positions = deformer.deform(poses, refine="auto")
+            status = deformer.refinement
+            bound_object.iterations, bound_object.energy, bound_object.unrefined_energy = status["iterations"], status["energy"], status["unrefined_energy"]
+        else:
+            positions = deformer.deform(poses, refine=0)
+            bound_object.iterations = 0
+    except (ValueError, RuntimeError) as error:  # the module's InputError and SolveError among them
+        raise SetupError(str(error)) from error
     final = not settings.refine or wait
     write(obj, positions, signature, final)
     bound_object.pose = signature
