@@ -367,6 +367,9 @@ void Document::install_build() {
   const std::uint64_t base = request_base_;
   pipeline_ = std::make_unique<UpdatePipeline>(*deformer_, [this, base](const UpdatePipeline::Result& result) {
     if (result.refinement.iterations == 0) last_update_ms_ = result.update_ms;
+    // The positions go out first: once the view below says a refinement has finished (settled()),
+    // its positions are the ones published.
+    if (publish_) publish_(result.positions, base + result.request);
     {
       // The deformer's timings are its last update's or iteration's: this thread just ran it.
       std::lock_guard lock(refinement_mutex_);
@@ -383,7 +386,6 @@ void Document::install_build() {
         refinement_timings_.push_back(deformer_->refinement_timings());
       }
     }
-    if (publish_) publish_(result.positions, base + result.request);
     last_published_ = base + result.request;
   });
   pipeline_->set_refinement(refine_);
