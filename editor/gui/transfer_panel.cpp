@@ -148,6 +148,29 @@ void TransferView::draw_panel(const DialogKeys& keys) {
   if (const auto folder = path_prompt("Export sequence to folder", export_open_, dialog_path_, escape_pressed)) export_sequence(*folder);
 }
 
+// ---- unsaved marker pairs: what Load, a drop and Quit ask about --------------------------------
+
+std::string TransferView::unsaved_markers() const {
+  if (!sides_[0] || markers_.version() == saved_markers_version_) return "";
+  return std::to_string(markers_.size()) + " marker pair" + (markers_.size() == 1 ? "" : "s") +
+         (markers_path_.empty() || !std::filesystem::exists(markers_path_) ? " (never saved)"
+                                                                          : " (changed since " + std::filesystem::path(markers_path_).filename().string() + ")");
+}
+
+bool TransferView::save_markers_in_place() {
+  if (markers_path_.empty()) {
+    save_as_open_ = true;
+    return false;
+  }
+  save_markers(markers_path_);
+  return markers_.version() == saved_markers_version_;
+}
+
+void TransferView::open_or_ask(const TransferPaths& inputs) {
+  if (unsaved_markers().empty()) return open(inputs);
+  asked_open_ = inputs;
+}
+
 void TransferView::draw_overlays() {
   if (!sides_[0]) return;
   ImDrawList* draw = ImGui::GetBackgroundDrawList();  // under the panel and the dialogs

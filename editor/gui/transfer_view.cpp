@@ -567,27 +567,6 @@ void TransferView::start_compute() {
   }, [] { glfwPostEmptyEvent(); });
 }
 
-std::string TransferView::unsaved_markers() const {
-  if (!sides_[0] || markers_.version() == saved_markers_version_) return "";
-  return std::to_string(markers_.size()) + " marker pair" + (markers_.size() == 1 ? "" : "s") +
-         (markers_path_.empty() || !std::filesystem::exists(markers_path_) ? " (never saved)"
-                                                                          : " (changed since " + std::filesystem::path(markers_path_).filename().string() + ")");
-}
-
-bool TransferView::save_markers_in_place() {
-  if (markers_path_.empty()) {
-    save_as_open_ = true;
-    return false;
-  }
-  save_markers(markers_path_);
-  return markers_.version() == saved_markers_version_;
-}
-
-void TransferView::open_or_ask(const TransferPaths& inputs) {
-  if (unsaved_markers().empty()) return open(inputs);
-  asked_open_ = inputs;
-}
-
 void TransferView::save_markers(const std::string& path) {
   try {
     write_marker_pairs(path, markers_.pairs(), source_column_ == 2 ? SourceColumn::Second : SourceColumn::First);
