@@ -83,18 +83,20 @@ bpy.ops.ed.redo()
 assert np.array_equal(support.shape_key(bpy.data.objects["cactus"]), second), "redo did not bring the second move back"
 support.passed("undo and redo restore the keys exactly")
 
-# The Buddha with the shared sets and transform.
-if not (support.SHARED / "buddha").is_dir():
-    print(f"SKIPPED the Buddha: {support.SHARED} is absent (set HDEFORM_SHARED_MESHES)")
-else:
-    folder = support.SHARED / "buddha"
-    V, F = hdeform.read_mesh(str(folder / "buddha-206k.obj"))
-    fixed = np.loadtxt(folder / "buddha-206k-fixed.txt", dtype=np.int64)
-    handle = np.loadtxt(folder / "buddha-206k-handle.txt", dtype=np.int64)
-    transform = np.loadtxt(folder / "buddha-206k-transform.txt")
+# The shared meshes with their fixed and handle sets and transforms: the Botsch-Sorkine cactus and
+# the Buddha.
+for name, folder, stem in (("the cactus", "deformation-benchmark", "cactus"), ("the Buddha", "buddha", "buddha-206k")):
+    folder = support.SHARED / folder
+    if not folder.is_dir():
+        print(f"SKIPPED {name}: {folder} is absent (set HDEFORM_SHARED_MESHES)")
+        continue
+    V, F = hdeform.read_mesh(str(folder / f"{stem}.obj"))
+    fixed = np.loadtxt(folder / f"{stem}-fixed.txt", dtype=np.int64)
+    handle = np.loadtxt(folder / f"{stem}-handle.txt", dtype=np.int64)
+    transform = np.loadtxt(folder / f"{stem}-transform.txt")
     for refine in (False, True):
         support.empty_scene()
-        obj = support.mesh_object("buddha", V, F)
+        obj = support.mesh_object(stem, V, F)
         support.assign(obj, "hdeform_fixed", fixed)
         support.assign(obj, "hdeform_handle_1", handle)
         obj.hdeform.refine = refine
@@ -103,9 +105,9 @@ else:
         # The Empty moved by the scenario's transform (in the mesh's space, where the Empty's own
         # values act: it hangs from the mesh with no parent inverse).
         moved = np.eye(4)
-        moved[:3, :4] = transform
+        moved[:3, :4] = transform[:3, :4]
         item.empty.matrix_basis = Matrix((moved @ np.array(item.empty.matrix_basis)).tolist())
         bpy.context.view_layer.update()
         bpy.ops.hdeform.update(wait=True)
-        check(obj, fixed, [handle], refine, f"buddha-206k, refine={refine}")
-    support.passed("the Buddha, with and without refinement, as the module and hdeform edit")
+        check(obj, fixed, [handle], refine, f"{stem}, refine={refine}")
+    support.passed(f"{name} with the shared sets, with and without refinement, as the module and hdeform edit")
