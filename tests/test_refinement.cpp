@@ -254,7 +254,9 @@ TEST(Refinement, EachPoseGivesTheSameBitsAsAFreshDeformerWhateverCameBefore) {
     EXPECT_EQ(driven.refinement_status().energy, fresh.refinement_status().energy);
     EXPECT_EQ(driven.refinement_status().iterations, fresh.refinement_status().iterations);
     EXPECT_TRUE(driven.refinement_status().converged);
-    if (x != 0.0) EXPECT_GT(driven.refinement_status().iterations, 3) << "a bend takes more than a few iterations";
+    if (x != 0.0) {
+      EXPECT_GT(driven.refinement_status().iterations, 3) << "a bend takes more than a few iterations";
+    }
   }
 }
 

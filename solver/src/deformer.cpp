@@ -77,11 +77,65 @@ struct Deformer::UpdateGraph {
   }
 };
 
-std::shared_ptr<const MeshOperators> MeshOperators::of(const Mesh& mesh) {
+std::string_view to_string(Resolution resolution) {
+  switch (resolution) {
+    case Resolution::Automatic: return "automatic";
+    case Resolution::Exact: return "exact";
+    case Resolution::Multiresolution: return "multiresolution";
+  }
+  return "?";
+}
+
+std::optional<Resolution> parse_resolution(std::string_view name) {
+  for (const auto resolution : {Resolution::Automatic, Resolution::Exact, Resolution::Multiresolution}) {
+    if (name == to_string(resolution)) return resolution;
+  }
+  return std::nullopt;
+}
+
+Resolution resolution_for(Eigen::Index vertices, Resolution asked) {
+  if (asked != Resolution::Automatic) return asked;
+  return vertices >= kMultiresolutionFrom ? Resolution::Multiresolution : Resolution::Exact;
+}
+
+std::shared_ptr<const MeshOperators> MeshOperators::of(const Mesh& mesh, Resolution resolution, Eigen::Index base_vertices,
+                                                       const ProgressCallback& progress) {
   validate_mesh(mesh);
+  auto report = [&](std::string_view stage) {
+    if (progress) progress(stage);
+  };
   const auto start = Clock::now();
   auto operators = std::make_shared<MeshOperators>();
   std::optional<trace::Scope> stage;
+  if (resolution_for(mesh.vertex_count(), resolution) == Resolution::Multiresolution) {
+    try {
+      report("building a base mesh of about " + std::to_string(base_vertices) + " vertices (multiresolution)");
+      auto multiresolution = std::make_shared<Multiresolution>();
+      multiresolution->base = simplify_to_base(mesh, base_vertices);
+      report("encoding the detail of " + std::to_string(mesh.vertex_count()) + " vertices on the base of " +
+             std::to_string(multiresolution->base.mesh.vertex_count()));
+      // The encoding and the fine mesh's own weights and inspection (its partition needs them)
+      // are independent.
+      tbb::parallel_invoke([&] { multiresolution->encoding = DetailEncoding(mesh, multiresolution->base); },
+                           [&] {
+                             const trace::Scope traced("cotangent weights and mesh inspection", "set-up");
+                             operators->weights = cotangent_weights(mesh);
+                             operators->inspection = inspect_mesh(mesh, operators->weights);
+                           });
+      multiresolution->ms = milliseconds_since(start);
+      report("building the base mesh's cotangent Laplacian");
+      multiresolution->base_operators = of(multiresolution->base.mesh, Resolution::Exact);
+      operators->multiresolution = std::move(multiresolution);
+      operators->ms = milliseconds_since(start);
+      return operators;
+    } catch (const SolveError& error) {
+      if (resolution == Resolution::Multiresolution) throw;
+      operators->exact_because = std::string("solved exactly: ") + error.what();
+    }
+  }
+  report(elimination_order_for(mesh.vertex_count()) == EliminationOrder::NestedDissection
+             ? "building the cotangent Laplacian and a nested-dissection order of its unknowns"
+             : "building the cotangent Laplacian");
   stage.emplace("cotangent weights", "set-up");
   operators->weights = cotangent_weights(mesh);
   stage.emplace("Laplacian", "set-up");
@@ -125,15 +179,14 @@ Deformer::Deformer(Mesh rest, EditConstraints constraints, std::shared_ptr<const
   if (constraints_.handles.empty()) throw InputError("no handle: at least one handle vertex list is needed");
 
   auto start = Clock::now();
-  if (!operators_) {
-    report(elimination_order_for(rest_.vertex_count()) == EliminationOrder::NestedDissection
-               ? "building the cotangent Laplacian and a nested-dissection order of its unknowns"
-               : "building the cotangent Laplacian");
-    operators_ = MeshOperators::of(rest_);
-  } else if (operators_->laplacian.rows() != rest_.vertex_count() ||
-             operators_->weights.kind.size() != static_cast<std::size_t>(rest_.triangle_count())) {
-    throw std::invalid_argument("Deformer: the operators given are of another mesh");
+  if (operators_) {
+    const bool sizes_fit = operators_->weights.kind.size() == static_cast<std::size_t>(rest_.triangle_count()) &&
+                           (operators_->multiresolution ? operators_->multiresolution->encoding.fine_count() == rest_.vertex_count()
+                                                        : operators_->laplacian.rows() == rest_.vertex_count());
+    if (!sizes_fit) throw std::invalid_argument("Deformer: the operators given are of another mesh");
+    if (options_.resolution != Resolution::Automatic && operators_->resolution() != options_.resolution) operators_.reset();
   }
+  if (!operators_) operators_ = MeshOperators::of(rest_, options_.resolution, options_.base_vertices, progress);
   const auto& weights = operators_->weights;
   std::optional<trace::Scope> stage;
   stage.emplace("vertex partition", "set-up");
@@ -146,8 +199,13 @@ Deformer::Deformer(Mesh rest, EditConstraints constraints, std::shared_ptr<const
                      "vertices there, or give a region of interest (the vertices outside it stay fixed).");
   }
   handle_warnings_ = handle_shape_warnings(rest_, constraints_);
-  const auto& laplacian = operators_->laplacian;
   timings_.laplacian_ms = milliseconds_since(start);
+  if (operators_->multiresolution) {
+    stage.reset();
+    set_up_on_base(progress);
+    return;
+  }
+  const auto& laplacian = operators_->laplacian;
 
   stage.emplace("factorization", "set-up");
   report("factoring " + std::to_string(partition_.free_vertices.size()) + " unknowns (" +
@@ -321,6 +379,7 @@ std::vector<std::string> Deformer::warnings() const {
   auto lines = operators_->inspection.warnings();
   lines.insert(lines.end(), partition_.warnings.begin(), partition_.warnings.end());
   lines.insert(lines.end(), handle_warnings_.begin(), handle_warnings_.end());
+  if (!operators_->exact_because.empty()) lines.push_back(operators_->exact_because);
   return lines;
 }
 
@@ -332,16 +391,33 @@ void Deformer::deform(std::span<const HandleTransform> transforms, Eigen::Matrix
   const trace::Scope traced("update", "update");
   const auto began = Clock::now();
   positions.resize(rest_.vertex_count(), 3);
+  std::copy(transforms.begin(), transforms.end(), edited_.begin());
+  refinement_start_ = start;
+  if (base_) {
+    base_->deform(transforms, base_positions_, start);
+    const auto detail_began = Clock::now();
+    operators_->multiresolution->encoding.reconstruct(base_positions_, positions);
+    write_constrained(transforms, positions);
+    last_update_ = base_->last_update();
+    last_update_.detail_ms = milliseconds_since(detail_began);
+    last_update_.total_ms = milliseconds_since(began);
+    return;
+  }
   last_update_ = UpdateTimings{};
+  if (std::all_of(transforms.begin(), transforms.end(), [](const HandleTransform& t) { return t.is_identity(); })) {
+    // Nothing moved: the rest shape is the method's answer, to the last bit.
+    positions = rest_.positions;
+    refinement_pending_ = true;
+    last_update_.total_ms = milliseconds_since(began);
+    return;
+  }
   graph_->transforms = transforms;
   graph_->positions = &positions;
   update_arena_->arena.execute([this] {
     graph_->start.try_put(Message());
     graph_->graph.wait_for_all();
   });
-  std::copy(transforms.begin(), transforms.end(), edited_.begin());
   refinement_pending_ = true;
-  refinement_start_ = start;
   last_update_.total_ms = milliseconds_since(began);
 }
 
@@ -400,6 +476,14 @@ int Deformer::refine(Eigen::MatrixXd& positions, int max_iterations) {
   if (positions.rows() != rest_.vertex_count() || positions.cols() != 3) {
     throw std::invalid_argument("refine: positions must be the " + std::to_string(rest_.vertex_count()) + "×3 result of deform()");
   }
+  if (base_) {
+    const int iterations = base_->refine(base_positions_, max_iterations);
+    if (iterations > 0) {
+      operators_->multiresolution->encoding.reconstruct(base_positions_, positions);
+      write_constrained(edited_, positions);
+    }
+    return iterations;
+  }
   if (!refinement_) prepare_refinement();
   if (refinement_pending_) {
     const trace::Scope traced("refinement start", "refinement");
@@ -423,16 +507,19 @@ int Deformer::refine(Eigen::MatrixXd& positions, int max_iterations) {
 
 const RefinementStatus& Deformer::refinement_status() const {
   static const RefinementStatus none;
+  if (base_) return base_->refinement_status();
   return refinement_ ? refinement_->status() : none;
 }
 
 const RefinementTimings& Deformer::refinement_timings() const {
   static const RefinementTimings none;
+  if (base_) return base_->refinement_timings();
   return refinement_ ? refinement_->timings() : none;
 }
 
 void Deformer::set_refinement_options(const RefinementOptions& options) {
   options_.refinement = options;
+  if (base_) base_->set_refinement_options(options);
   if (refinement_) refinement_->set_options(options);
 }
 

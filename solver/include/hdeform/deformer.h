@@ -18,6 +18,7 @@
 #include "hdeform/handle_transform.h"
 #include "hdeform/mesh.h"
 #include "hdeform/mesh_check.h"
+#include "hdeform/multiresolution.h"
 #include "hdeform/refinement.h"
 #include "hdeform/sparse_cholesky.h"
 
@@ -26,9 +27,26 @@ namespace detail {
 class ArapRefinement;
 }
 
+// Where the solves run: on the mesh itself, or on a base mesh that carries the fine mesh's detail
+// (multiresolution.h).
+enum class Resolution {
+  Automatic,        // Multiresolution from kMultiresolutionFrom vertices on, Exact below
+  Exact,            // every vertex an unknown of the solves
+  Multiresolution,  // the solves on a base of base_vertices, the detail carried
+};
+std::string_view to_string(Resolution resolution);
+std::optional<Resolution> parse_resolution(std::string_view name);
+// What Automatic means for a mesh of `vertices` vertices (Exact or Multiresolution).
+Resolution resolution_for(Eigen::Index vertices, Resolution asked = Resolution::Automatic);
+
+// Called from the constructing thread before each set-up stage, with a line for the user.
+using ProgressCallback = std::function<void(std::string_view stage)>;
+
 struct DeformerOptions {
   SolverBackend backend = default_backend();
   SolveSchedule schedule = default_schedule();
+  Resolution resolution = Resolution::Automatic;
+  Eigen::Index base_vertices = kDefaultBaseVertices;  // the base's size, with multiresolution
   RefinementOptions refinement;
   // Set up the as-rigid-as-possible refinement with the rest (else at the first refine()).
   bool prepare_refinement = false;
@@ -45,6 +63,7 @@ struct DeformerOptions {
 // the constrained targets are computed while the maps are).
 struct UpdateTimings {
   double field_ms = 0.0;    // several handles: the five interpolated fields
+  double detail_ms = 0.0;   // multiresolution: the fine mesh rebuilt from the base
   double maps_ms = 0.0;     // per-triangle maps
   double targets_ms = 0.0;  // fixed and handle positions
   double rhs_ms = 0.0;      // Poisson right-hand side
@@ -57,6 +76,7 @@ struct DeformerTimings {  // set-up, milliseconds
   double laplacian_ms = 0.0;  // weights, inspection, partition and Laplacian (the partition alone when reused)
   double factor_ms = 0.0;  // analyse + numeric factorization of L_ff
   double field_ms = 0.0;   // harmonic field solve
+  double base_ms = 0.0;    // multiresolution: the base mesh and the detail encoding (with the operators)
 };
 
 // What depends on the rest mesh alone: cotangent weights, the inspection, the Laplacian and a
@@ -75,8 +95,24 @@ struct MeshOperators {
   std::vector<int> elimination_rank;
   double ms = 0.0;  // what computing them took
 
-  // Runs validate_mesh.
-  static std::shared_ptr<const MeshOperators> of(const Mesh& mesh);
+  // With multiresolution, the mesh's own Laplacian and order are left empty (only the weights and
+  // the inspection are the fine mesh's): the solves run on the base, with its own operators.
+  struct Multiresolution {
+    BaseMesh base;
+    DetailEncoding encoding;
+    std::shared_ptr<const MeshOperators> base_operators;
+    double ms = 0.0;  // simplification and encoding
+  };
+  std::shared_ptr<const Multiresolution> multiresolution;
+  // Why Automatic stayed exact on a mesh of multiresolution's size (the base lost the topology).
+  std::string exact_because;
+
+  Resolution resolution() const { return multiresolution ? Resolution::Multiresolution : Resolution::Exact; }
+
+  // Runs validate_mesh. `resolution` as in DeformerOptions (Automatic: by the mesh's size).
+  // Throws SolveError when Multiresolution was asked for and no base keeps the mesh's topology.
+  static std::shared_ptr<const MeshOperators> of(const Mesh& mesh, Resolution resolution = Resolution::Automatic,
+                                                 Eigen::Index base_vertices = kDefaultBaseVertices, const ProgressCallback& progress = {});
 
   // The analysis of the last L_ff factored with these operators, for the next set-up whose free
   // vertices are the same (thread-safe).
@@ -88,9 +124,6 @@ struct MeshOperators {
   mutable std::shared_ptr<const SparseCholesky::Analysis> last_analysis_;
 };
 
-// Called from the constructing thread before each set-up stage, with a line for the user.
-using ProgressCallback = std::function<void(std::string_view stage)>;
-
 class Deformer {
  public:
   // Throws InputError for invalid constraints (no handle, bad indices) and SolveError when the
@@ -98,7 +131,8 @@ class Deformer {
   Deformer(Mesh rest, EditConstraints constraints, DeformerOptions options = {}, const ProgressCallback& progress = {});
   // The same, with the operators of this very mesh computed before (MeshOperators::of(rest), or
   // another Deformer's operators() on it): a re-selection. Throws std::invalid_argument when their
-  // sizes do not fit the mesh.
+  // sizes do not fit the mesh. Operators of the other resolution than options.resolution asks
+  // for (Automatic takes either) are computed again.
   Deformer(Mesh rest, EditConstraints constraints, std::shared_ptr<const MeshOperators> operators, DeformerOptions options = {},
            const ProgressCallback& progress = {});
   ~Deformer();
@@ -110,7 +144,12 @@ class Deformer {
   const VertexPartition& partition() const { return partition_; }
   const MeshInspection& inspection() const { return operators_->inspection; }
   const std::shared_ptr<const MeshOperators>& operators() const { return operators_; }
-  const DirichletSystem& system() const { return *system_; }
+  // Multiresolution or Exact: what this deformer solves on.
+  Resolution resolution() const { return operators_->resolution(); }
+  // The mesh the solves run on: the base with multiresolution, else rest().
+  const Mesh& solved_mesh() const { return base_ ? base_->rest() : rest_; }
+  // The system of the mesh the solves run on (the base's with multiresolution).
+  const DirichletSystem& system() const { return base_ ? base_->system() : *system_; }
   const DeformerOptions& options() const { return options_; }
   const DeformerTimings& timings() const { return timings_; }
   // The harmonic field h: 1 at every handle vertex, 0 at fixed vertices.
@@ -142,6 +181,8 @@ class Deformer {
   const RefinementOptions& refinement_options() const { return options_.refinement; }
 
  private:
+  void set_up_on_base(const ProgressCallback& progress);
+  void write_constrained(std::span<const HandleTransform> transforms, Eigen::MatrixXd& positions) const;
   struct UpdateArena;
   struct UpdateGraph;
   void prepare_update_triangles();
@@ -173,6 +214,9 @@ class Deformer {
   bool refinement_pending_ = false;      // deform() ran since the refinement last began an edit
   RefinementStart refinement_start_ = RefinementStart::FromPapersResult;  // of the last deform()
   std::optional<HandleTransform> field_of_;  // one handle: the transform the refinement's field rotations are of
+  // Multiresolution: the deformer of the base, and its last positions.
+  std::unique_ptr<Deformer> base_;
+  Eigen::MatrixXd base_positions_;
 };
 
 }  // namespace hdeform

@@ -1,0 +1,46 @@
+// The Deformer with multiresolution (multiresolution.h): the paper's update and the refinement run
+// on the base's own Deformer; this one rebuilds the fine mesh from the base and puts the fine
+// mesh's constrained vertices exactly where their constraints say.
+#include <tbb/parallel_for.h>
+
+#include "hdeform/deformer.h"
+#include "hdeform/trace.h"
+
+namespace hdeform {
+
+void Deformer::set_up_on_base(const ProgressCallback& progress) {
+  const auto& multiresolution = *operators_->multiresolution;
+  DeformerOptions base_options = options_;
+  base_options.resolution = Resolution::Exact;
+  base_ = std::make_unique<Deformer>(multiresolution.base.mesh, base_constraints(constraints_, multiresolution.encoding),
+                                     multiresolution.base_operators, base_options, progress);
+  // The fine field: the base's, carried over the feet; exact at the fine constrained vertices.
+  field_ = multiresolution.encoding.interpolate(base_->field());
+  for (const int v : partition_.constrained_vertices) {
+    field_[v] = partition_.role[static_cast<std::size_t>(v)] == VertexRole::Handle ? 1.0 : 0.0;
+  }
+  const double partition_ms = timings_.laplacian_ms;
+  timings_ = base_->timings();
+  timings_.laplacian_ms += partition_ms;
+  timings_.base_ms = multiresolution.ms;
+  base_positions_ = multiresolution.base.mesh.positions;
+  edited_.resize(handle_count());
+}
+
+void Deformer::write_constrained(std::span<const HandleTransform> transforms, Eigen::MatrixXd& positions) const {
+  const auto& vertices = partition_.constrained_vertices;
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, vertices.size(), 4096), [&](const auto& range) {
+    for (std::size_t i = range.begin(); i != range.end(); ++i) {
+      const int v = vertices[i];
+      const auto vertex = static_cast<std::size_t>(v);
+      if (partition_.role[vertex] == VertexRole::Handle) {
+        const auto& transform = transforms[static_cast<std::size_t>(partition_.handle_index[vertex])];
+        positions.row(v) = transform.apply(rest_.positions.row(v).transpose()).transpose();
+      } else {
+        positions.row(v) = rest_.positions.row(v);
+      }
+    }
+  });
+}
+
+}  // namespace hdeform

@@ -1,0 +1,415 @@
+#include "edge_collapse.h"
+
+#include <Eigen/Geometry>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <optional>
+#include <utility>
+#include <tuple>
+
+namespace hdeform::detail {
+namespace {
+
+// A plane quadric: the symmetric 4×4 matrix of Σ (nᵀp + d)² over planes, as its ten entries.
+struct Quadric {
+  std::array<double, 10> q{};  // aa ab ac ad bb bc bd cc cd dd
+  double weight = 0.0;         // Σ of the planes' weights
+
+  static Quadric plane(const Eigen::Vector3d& n, double d, double weight) {
+    Quadric result;
+    const double a = n.x(), b = n.y(), c = n.z();
+    result.q = {a * a, a * b, a * c, a * d, b * b, b * c, b * d, c * c, c * d, d * d};
+    for (double& value : result.q) value *= weight;
+    result.weight = weight;
+    return result;
+  }
+  Quadric& operator+=(const Quadric& other) {
+    for (std::size_t i = 0; i < q.size(); ++i) q[i] += other.q[i];
+    weight += other.weight;
+    return *this;
+  }
+  double error(const Eigen::Vector3d& p) const {
+    const double x = p.x(), y = p.y(), z = p.z();
+    return q[0] * x * x + 2 * q[1] * x * y + 2 * q[2] * x * z + 2 * q[3] * x + q[4] * y * y + 2 * q[5] * y * z + 2 * q[6] * y +
+           q[7] * z * z + 2 * q[8] * z + q[9];
+  }
+};
+
+// cos of the largest turn of a triangle's normal a collapse may cause.
+constexpr double kSmallestNormalCosine = 0.2;
+// The shape a collapse may leave a triangle in (triangle_quality), unless it was worse before:
+// slivers would make the base's cotangent weights, and so its field, poor.
+constexpr double kSmallestQuality = 0.3;
+// Where the quadric error cannot tell collapses apart (flat parts: a subdivided mesh is flat
+// between its original vertices), the shorter edge goes first, which keeps the base even. The
+// squared length counts at this fraction against the mean squared distance to the planes.
+constexpr double kLengthWeight = 1e-3;
+
+// 4√3 area / Σ squared edge lengths: 1 for an equilateral triangle, 0 for a degenerate one.
+double triangle_quality(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c) {
+  const double lengths = (b - a).squaredNorm() + (c - b).squaredNorm() + (a - c).squaredNorm();
+  return lengths > 0 ? 2.0 * std::sqrt(3.0) * (b - a).cross(c - a).norm() / lengths : 0.0;
+}
+
+class Collapser {
+ public:
+  explicit Collapser(const Mesh& mesh) : triangles_(static_cast<std::size_t>(mesh.triangle_count())) {
+    const auto n = static_cast<std::size_t>(mesh.vertex_count());
+    positions_.resize(n);
+    for (std::size_t v = 0; v < n; ++v) positions_[v] = mesh.positions.row(static_cast<Eigen::Index>(v)).transpose();
+    around_.resize(n);
+    quadric_.resize(n);
+    removed_.assign(n, 0);
+    locked_.assign(n, 0);
+    referenced_.assign(n, 0);
+    for (std::size_t t = 0; t < triangles_.size(); ++t) {
+      auto& corners = triangles_[t];
+      for (int k = 0; k < 3; ++k) {
+        corners[static_cast<std::size_t>(k)] = mesh.triangles(static_cast<Eigen::Index>(t), k);
+        around_[static_cast<std::size_t>(corners[static_cast<std::size_t>(k)])].push_back(static_cast<int>(t));
+        referenced_[static_cast<std::size_t>(corners[static_cast<std::size_t>(k)])] = 1;
+      }
+      const Eigen::Vector3d a = point(corners[0]), b = point(corners[1]), c = point(corners[2]);
+      const Eigen::Vector3d cross = (b - a).cross(c - a);
+      const double area = 0.5 * cross.norm();
+      if (area > 0) {
+        const Eigen::Vector3d normal = cross.normalized();
+        const Quadric plane = Quadric::plane(normal, -normal.dot(a), area);
+        for (const int v : corners) quadric_[static_cast<std::size_t>(v)] += plane;
+      }
+    }
+    alive_triangles_ = triangles_.size();
+    for (std::size_t v = 0; v < n; ++v) {
+      if (referenced_[v]) ++alive_vertices_;
+      locked_[v] = !one_closed_fan(static_cast<int>(v));
+    }
+  }
+
+  Eigen::Index alive_vertices() const { return alive_vertices_; }
+
+  // In passes, as meshoptimizer's simplifier does: each vertex's cheapest collapse is costed (in
+  // parallel, again only where a collapse changed what it costs), and the pass takes the cheapest
+  // of them, up to half the vertices, unless an earlier collapse of the pass changed their cost;
+  // a refused one gives way to its vertex's cheapest allowed collapse when that is as cheap.
+  void run(Eigen::Index target) {
+    std::vector<Candidate> candidates;
+    std::vector<char> stale(around_.size(), 0);
+    best_.assign(around_.size(), Candidate{-1.0, -1, -1, 0.0});
+    std::vector<char> dirty(around_.size(), 1);
+    while (alive_vertices_ > target) {
+      cost_candidates(dirty);
+      std::fill(dirty.begin(), dirty.end(), 0);
+      candidates.clear();
+      for (std::size_t u = 0; u < best_.size(); ++u) {
+        if (best_[u].from >= 0 && !removed_[u]) candidates.push_back(best_[u]);
+      }
+      if (candidates.empty()) break;
+      const Eigen::Index goal = std::min(alive_vertices_ - target, std::max<Eigen::Index>(1, alive_vertices_ / 2));
+      // The goal's cheapest candidates, taken in vertex order: that order is spatial
+      // (collapse_edges), so each collapse finds its neighbourhood in cache, where the order of
+      // cost would jump across the mesh (several times slower on a scan).
+      const auto cut = candidates.begin() + std::min<std::ptrdiff_t>(goal, static_cast<std::ptrdiff_t>(candidates.size()) - 1);
+      std::nth_element(candidates.begin(), cut, candidates.end(), [](const Candidate& a, const Candidate& b) { return b > a; });
+      const Candidate threshold = *cut;
+      std::fill(stale.begin(), stale.end(), 0);
+      Eigen::Index collapsed = 0;
+      for (std::size_t vertex = 0; vertex < best_.size(); ++vertex) {
+        const Candidate candidate = best_[vertex];
+        if (collapsed == goal) break;
+        if (candidate.from < 0 || candidate > threshold) continue;
+        const auto u = static_cast<std::size_t>(candidate.from), v = static_cast<std::size_t>(candidate.to);
+        if (stale[u] || removed_[u] || removed_[v]) continue;
+        Candidate chosen = candidate;
+        if (!collapse_allowed(chosen.from, chosen.to, scratch_, other_)) {
+          // Refused (a fold, a sliver, the link condition): u's next cheapest that is allowed, if
+          // it is still among the pass's cheapest.
+          const auto next = cheapest_allowed(chosen.from, scratch_, other_);
+          best_[u] = next.value_or(Candidate{-1.0, -1, -1, 0.0});  // what the next passes see of u
+          if (!next || *next > threshold) continue;
+          chosen = *next;
+        }
+        const int survivor = chosen.to;
+        collapse(chosen.from, survivor);
+        // survivor's quadric changed: its own collapse and those onto it (or onto u) cost
+        // something else now; they wait for the next pass, costed again. Every other candidate
+        // keeps its cost, and is checked when it is taken.
+        stale[static_cast<std::size_t>(survivor)] = dirty[static_cast<std::size_t>(survivor)] = 1;
+        neighbours(survivor, ring_);
+        for (const int w : ring_) {
+          const auto target_of_w = best_[static_cast<std::size_t>(w)].to;
+          // (−1: nothing was allowed; a changed neighbourhood may allow something now.)
+          if (target_of_w == survivor || target_of_w == chosen.from || target_of_w < 0) {
+            stale[static_cast<std::size_t>(w)] = dirty[static_cast<std::size_t>(w)] = 1;
+          }
+        }
+        largest_error_ = std::max(largest_error_, chosen.squared_distance);
+        ++collapsed;
+      }
+      if (collapsed == 0) break;
+    }
+  }
+
+  CollapsedMesh result() const {
+    CollapsedMesh collapsed;
+    collapsed.kept.assign(around_.size(), 0);
+    collapsed.triangles.resize(static_cast<Eigen::Index>(alive_triangles_), 3);
+    Eigen::Index row = 0;
+    for (const auto& corners : triangles_) {
+      if (corners[0] < 0) continue;
+      for (int k = 0; k < 3; ++k) {
+        collapsed.triangles(row, k) = corners[static_cast<std::size_t>(k)];
+        collapsed.kept[static_cast<std::size_t>(corners[static_cast<std::size_t>(k)])] = 1;
+      }
+      ++row;
+    }
+    collapsed.vertices = std::count(collapsed.kept.begin(), collapsed.kept.end(), 1);
+    collapsed.largest_error = std::sqrt(std::max(0.0, largest_error_));
+    return collapsed;
+  }
+
+ private:
+  struct Candidate {
+    double cost;
+    int from, to;
+    double squared_distance;  // the quadric's part of the cost: mean squared distance to the planes
+    bool operator>(const Candidate& other) const {
+      return std::tie(cost, from, to) > std::tie(other.cost, other.from, other.to);
+    }
+  };
+
+  const Eigen::Vector3d& point(int v) const { return positions_[static_cast<std::size_t>(v)]; }
+
+  // The distinct neighbours of v, through its live triangles (a fan holds a handful: a linear
+  // search beats sorting).
+  void neighbours(int v, std::vector<int>& out) const {
+    out.clear();
+    for (const int t : around_[static_cast<std::size_t>(v)]) {
+      for (const int w : triangles_[static_cast<std::size_t>(t)]) {
+        if (w != v && std::find(out.begin(), out.end(), w) == out.end()) out.push_back(w);
+      }
+    }
+  }
+
+  // Whether v's triangles form one closed fan: every edge from v in exactly two of them, as many
+  // triangles as neighbours, and the triangles connected around v.
+  bool one_closed_fan(int v) const {
+    const auto& fan = around_[static_cast<std::size_t>(v)];
+    if (fan.size() < 3) return false;
+    std::vector<std::pair<int, int>> rims;  // (neighbour before, neighbour after) per triangle
+    for (const int t : fan) {
+      const auto& c = triangles_[static_cast<std::size_t>(t)];
+      const int k = c[0] == v ? 0 : c[1] == v ? 1 : 2;
+      rims.emplace_back(c[static_cast<std::size_t>((k + 1) % 3)], c[static_cast<std::size_t>((k + 2) % 3)]);
+    }
+    // Walk the fan: from each triangle's far corner to the triangle that starts there.
+    std::vector<char> seen(rims.size(), 0);
+    std::size_t at = 0, walked = 0;
+    for (; walked < rims.size(); ++walked) {
+      if (seen[at]) break;
+      seen[at] = 1;
+      const int next = rims[at].second;
+      std::size_t found = rims.size(), count = 0;
+      for (std::size_t i = 0; i < rims.size(); ++i) {
+        if (rims[i].first == next) {
+          found = i;
+          ++count;
+        }
+      }
+      if (count != 1) return false;
+      at = found;
+    }
+    return walked == rims.size() && at == 0;
+  }
+
+  Candidate cost_of(int u, int v) const {
+    Quadric sum = quadric_[static_cast<std::size_t>(u)];
+    sum += quadric_[static_cast<std::size_t>(v)];
+    const double squared_distance = std::max(0.0, sum.error(point(v))) / std::max(sum.weight, 1e-300);
+    return {squared_distance + kLengthWeight * (point(v) - point(u)).squaredNorm(), u, v, squared_distance};
+  }
+
+  // The cheapest collapse of every unlocked vertex marked dirty, along one of its edges (whether
+  // it is allowed is asked when it is taken).
+  void cost_candidates(const std::vector<char>& dirty) {
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, around_.size(), 4096), [&](const auto& range) {
+      std::vector<int> ring;
+      for (std::size_t u = range.begin(); u != range.end(); ++u) {
+        if (!dirty[u] || removed_[u] || locked_[u] || !referenced_[u]) continue;
+        best_[u] = Candidate{-1.0, -1, -1, 0.0};
+        neighbours(static_cast<int>(u), ring);
+        for (const int v : ring) {
+          const Candidate candidate = cost_of(static_cast<int>(u), v);
+          if (best_[u].from < 0 || best_[u] > candidate) best_[u] = candidate;
+        }
+      }
+    });
+  }
+
+  // u's cheapest allowed collapse, if any.
+  std::optional<Candidate> cheapest_allowed(int u, std::vector<int>& ring_u, std::vector<int>& ring_v) const {
+    std::vector<int> ring;
+    neighbours(u, ring);
+    std::optional<Candidate> best;
+    for (const int v : ring) {
+      const Candidate candidate = cost_of(u, v);
+      if ((!best || *best > candidate) && collapse_allowed(u, v, ring_u, ring_v)) best = candidate;
+    }
+    return best;
+  }
+
+  // ring_u, ring_v: scratch space (collapse_allowed runs on several threads while candidates are costed).
+  bool collapse_allowed(int u, int v, std::vector<int>& ring_u, std::vector<int>& ring_v) const {
+    if (locked_[static_cast<std::size_t>(u)]) return false;
+    // The triangles on the edge, and their far corners.
+    std::array<int, 2> opposite{-1, -1};
+    int on_edge = 0;
+    for (const int t : around_[static_cast<std::size_t>(u)]) {
+      const auto& c = triangles_[static_cast<std::size_t>(t)];
+      if (c[0] != v && c[1] != v && c[2] != v) continue;
+      if (on_edge == 2) return false;
+      for (const int w : c) {
+        if (w != u && w != v) opposite[static_cast<std::size_t>(on_edge)] = w;
+      }
+      ++on_edge;
+    }
+    if (on_edge != 2) return false;
+    // Link condition.
+    neighbours(u, ring_u);
+    neighbours(v, ring_v);
+    std::size_t shared = 0;
+    for (const int w : ring_u) {
+      if (std::find(ring_v.begin(), ring_v.end(), w) == ring_v.end()) continue;
+      if (w != opposite[0] && w != opposite[1]) return false;
+      ++shared;
+    }
+    if (shared != 2) return false;
+    for (const int w : opposite) {
+      neighbours(w, ring_v);
+      if (ring_v.size() <= 3) return false;
+    }
+    // No fold: the triangles that stay, with u moved onto v.
+    const Eigen::Vector3d target = point(v);
+    for (const int t : around_[static_cast<std::size_t>(u)]) {
+      const auto& c = triangles_[static_cast<std::size_t>(t)];
+      if (c[0] == v || c[1] == v || c[2] == v) continue;
+      const Eigen::Vector3d a = point(c[0]), b = point(c[1]), d = point(c[2]);
+      const Eigen::Vector3d before = (b - a).cross(d - a);
+      const Eigen::Vector3d a2 = c[0] == u ? target : a, b2 = c[1] == u ? target : b, d2 = c[2] == u ? target : d;
+      const Eigen::Vector3d after = (b2 - a2).cross(d2 - a2);
+      const double lengths = before.norm() * after.norm();
+      if (!(lengths > 0) || before.dot(after) < kSmallestNormalCosine * lengths) return false;
+      const double quality = triangle_quality(a2, b2, d2);
+      if (quality < kSmallestQuality && quality < triangle_quality(a, b, d)) return false;
+    }
+    return true;
+  }
+
+  void collapse(int u, int v) {
+    auto& from = around_[static_cast<std::size_t>(u)];
+    auto& to = around_[static_cast<std::size_t>(v)];
+    for (const int t : from) {
+      auto& c = triangles_[static_cast<std::size_t>(t)];
+      if (c[0] == v || c[1] == v || c[2] == v) {
+        // One of the edge's two triangles: gone, from every corner's list.
+        for (const int w : c) {
+          if (w == u) continue;
+          auto& list = around_[static_cast<std::size_t>(w)];
+          list.erase(std::find(list.begin(), list.end(), t));
+        }
+        c = {-1, -1, -1};
+        --alive_triangles_;
+      } else {
+        for (int& w : c) {
+          if (w == u) w = v;
+        }
+        to.push_back(t);
+      }
+    }
+    from.clear();
+    removed_[static_cast<std::size_t>(u)] = 1;
+    --alive_vertices_;
+    quadric_[static_cast<std::size_t>(v)] += quadric_[static_cast<std::size_t>(u)];
+  }
+
+  std::vector<Eigen::Vector3d> positions_;
+  std::vector<std::array<int, 3>> triangles_;  // {−1, −1, −1}: collapsed away
+  std::vector<std::vector<int>> around_;       // live triangles per vertex
+  std::vector<Quadric> quadric_;
+  std::vector<char> removed_, locked_, referenced_;
+  std::vector<int> scratch_, other_, ring_;
+  std::vector<Candidate> best_;  // per vertex: its cheapest collapse (from −1: none)
+  Eigen::Index alive_vertices_ = 0;
+  std::size_t alive_triangles_ = 0;
+  double largest_error_ = 0.0;
+};
+
+// Vertices renumbered along a Morton curve of their positions (ties by index), and triangles by
+// their first vertex in that order: neighbours then sit close together in memory, and the serial
+// collapses, which chase neighbourhoods, run several times faster on a scan whose file order
+// is not spatial.
+std::vector<int> spatial_order(const Eigen::MatrixXd& positions) {
+  const auto n = positions.rows();
+  std::vector<std::pair<std::uint64_t, int>> keys(static_cast<std::size_t>(n));
+  const Eigen::RowVector3d low = n > 0 ? Eigen::RowVector3d(positions.colwise().minCoeff()) : Eigen::RowVector3d::Zero();
+  const Eigen::RowVector3d extent = n > 0 ? Eigen::RowVector3d(Eigen::RowVector3d(positions.colwise().maxCoeff()) - low) : Eigen::RowVector3d::Ones();
+  const double scale = 2097151.0 / std::max(extent.maxCoeff(), 1e-300);  // 21 bits per axis
+  auto spread = [](std::uint64_t x) {
+    x &= 0x1fffff;
+    x = (x | x << 32) & 0x1f00000000ffff;
+    x = (x | x << 16) & 0x1f0000ff0000ff;
+    x = (x | x << 8) & 0x100f00f00f00f00f;
+    x = (x | x << 4) & 0x10c30c30c30c30c3;
+    x = (x | x << 2) & 0x1249249249249249;
+    return x;
+  };
+  tbb::parallel_for(Eigen::Index{0}, n, [&](Eigen::Index v) {
+    std::uint64_t code = 0;
+    for (int k = 0; k < 3; ++k) code |= spread(static_cast<std::uint64_t>((positions(v, k) - low[k]) * scale)) << k;
+    keys[static_cast<std::size_t>(v)] = {code, static_cast<int>(v)};
+  });
+  std::sort(keys.begin(), keys.end());
+  std::vector<int> order(keys.size());
+  for (std::size_t i = 0; i < keys.size(); ++i) order[i] = keys[i].second;
+  return order;
+}
+
+}  // namespace
+
+CollapsedMesh collapse_edges(const Mesh& mesh, Eigen::Index target_vertices) {
+  const std::vector<int> order = spatial_order(mesh.positions);  // new → old
+  std::vector<int> rank(order.size());
+  for (std::size_t i = 0; i < order.size(); ++i) rank[static_cast<std::size_t>(order[i])] = static_cast<int>(i);
+  Mesh ordered;
+  ordered.positions.resize(mesh.vertex_count(), 3);
+  for (std::size_t i = 0; i < order.size(); ++i) ordered.positions.row(static_cast<Eigen::Index>(i)) = mesh.positions.row(order[i]);
+  std::vector<std::pair<int, Eigen::Index>> first(static_cast<std::size_t>(mesh.triangle_count()));
+  for (Eigen::Index t = 0; t < mesh.triangle_count(); ++t) {
+    first[static_cast<std::size_t>(t)] = {std::min({rank[static_cast<std::size_t>(mesh.triangles(t, 0))], rank[static_cast<std::size_t>(mesh.triangles(t, 1))],
+                                                     rank[static_cast<std::size_t>(mesh.triangles(t, 2))]}),
+                                           t};
+  }
+  std::sort(first.begin(), first.end());
+  ordered.triangles.resize(mesh.triangle_count(), 3);
+  for (std::size_t i = 0; i < first.size(); ++i) {
+    for (int k = 0; k < 3; ++k) {
+      ordered.triangles(static_cast<Eigen::Index>(i), k) = rank[static_cast<std::size_t>(mesh.triangles(first[i].second, k))];
+    }
+  }
+  Collapser collapser(ordered);
+  collapser.run(target_vertices);
+  CollapsedMesh collapsed = collapser.result();
+  // Back to the input's numbering.
+  std::vector<char> kept(collapsed.kept.size(), 0);
+  for (std::size_t i = 0; i < order.size(); ++i) kept[static_cast<std::size_t>(order[i])] = collapsed.kept[i];
+  collapsed.kept = std::move(kept);
+  for (Eigen::Index t = 0; t < collapsed.triangles.rows(); ++t) {
+    for (int k = 0; k < 3; ++k) collapsed.triangles(t, k) = order[static_cast<std::size_t>(collapsed.triangles(t, k))];
+  }
+  return collapsed;
+}
+
+}  // namespace hdeform::detail

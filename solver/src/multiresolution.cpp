@@ -1,0 +1,403 @@
+#include "hdeform/multiresolution.h"
+
+#include <Eigen/Geometry>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <limits>
+#include <numeric>
+#include <queue>
+#include <span>
+#include <utility>
+
+#include "disjoint_sets.h"
+#include "edge_collapse.h"
+#include "hdeform/errors.h"
+#include "hdeform/trace.h"
+
+namespace hdeform {
+namespace {
+
+constexpr std::size_t kRowGrain = 2048;
+
+std::uint64_t edge_key(int a, int b) {
+  if (a > b) std::swap(a, b);
+  return (static_cast<std::uint64_t>(static_cast<std::uint32_t>(a)) << 32) | static_cast<std::uint32_t>(b);
+}
+
+// The orthonormal frame of triangle (a, b, c): columns first edge, normal × first edge, normal.
+Eigen::Matrix3d triangle_frame(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c) {
+  const Eigen::Vector3d first = (b - a).normalized();
+  const Eigen::Vector3d normal = (b - a).cross(c - a).normalized();
+  Eigen::Matrix3d frame;
+  frame.col(0) = first;
+  frame.col(1) = normal.cross(first);
+  frame.col(2) = normal;
+  return frame;
+}
+
+// The closest point of triangle (a, b, c) to p as barycentric weights of b and c (Ericson,
+// Real-Time Collision Detection, §5.1.5).
+Eigen::Vector2d closest_point_weights(const Eigen::Vector3d& p, const Eigen::Vector3d& a, const Eigen::Vector3d& b,
+                                      const Eigen::Vector3d& c) {
+  const Eigen::Vector3d ab = b - a, ac = c - a, ap = p - a;
+  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
+  if (d1 <= 0 && d2 <= 0) return {0, 0};
+  const Eigen::Vector3d bp = p - b;
+  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
+  if (d3 >= 0 && d4 <= d3) return {1, 0};
+  const double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0 && d1 >= 0 && d3 <= 0) return {d1 / (d1 - d3), 0};
+  const Eigen::Vector3d cp = p - c;
+  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
+  if (d6 >= 0 && d5 <= d6) return {0, 1};
+  const double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0 && d2 >= 0 && d6 <= 0) return {0, d2 / (d2 - d6)};
+  const double va = d3 * d6 - d5 * d4;
+  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) {
+    const double w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+    return {1 - w, w};
+  }
+  const double denominator = 1.0 / (va + vb + vc);
+  return {vb * denominator, vc * denominator};
+}
+
+// The foot and the frame of a fine vertex on base triangle (a, b, c) with weights w of b and c.
+// One function for encoding, the rest reconstruction and every later one: the same arithmetic, so
+// the rest base reproduces its own reconstruction bit for bit.
+Eigen::Vector3d reconstructed(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c, double wb, double wc,
+                              const Eigen::Vector3d& detail) {
+  const Eigen::Vector3d foot = a + wb * (b - a) + wc * (c - a);
+  return foot + triangle_frame(a, b, c) * detail;
+}
+
+// Vertex → triangles, compressed rows.
+struct Incidence {
+  std::vector<int> start;
+  std::vector<int> triangle;
+  std::span<const int> of(int v) const {
+    const auto i = static_cast<std::size_t>(v);
+    return {triangle.data() + start[i], static_cast<std::size_t>(start[i + 1] - start[i])};
+  }
+};
+Incidence incidence(const Eigen::MatrixXi& triangles, Eigen::Index vertex_count) {
+  Incidence result;
+  result.start.assign(static_cast<std::size_t>(vertex_count) + 1, 0);
+  for (Eigen::Index t = 0; t < triangles.rows(); ++t) {
+    for (int k = 0; k < 3; ++k) ++result.start[static_cast<std::size_t>(triangles(t, k)) + 1];
+  }
+  for (std::size_t v = 0; v + 1 < result.start.size(); ++v) result.start[v + 1] += result.start[v];
+  result.triangle.resize(static_cast<std::size_t>(result.start.back()));
+  std::vector<int> next(result.start.begin(), result.start.end() - 1);
+  for (Eigen::Index t = 0; t < triangles.rows(); ++t) {
+    for (int k = 0; k < 3; ++k) result.triangle[static_cast<std::size_t>(next[static_cast<std::size_t>(triangles(t, k))]++)] = static_cast<int>(t);
+  }
+  return result;
+}
+
+// For every fine vertex the base vertex nearest along the fine mesh's edges (Dijkstra from every
+// base vertex at once, ties to the lower base index); −1 where none is reachable.
+std::vector<int> nearest_base_along_surface(const Mesh& fine, const std::vector<int>& base_of_fine, const Incidence& fine_incidence) {
+  const auto n = static_cast<std::size_t>(fine.vertex_count());
+  std::vector<double> distance(n, std::numeric_limits<double>::infinity());
+  std::vector<int> nearest(n, -1);
+  using Entry = std::pair<double, int>;
+  std::priority_queue<Entry, std::vector<Entry>, std::greater<>> queue;
+  for (std::size_t v = 0; v < n; ++v) {
+    if (base_of_fine[v] >= 0) {
+      distance[v] = 0;
+      nearest[v] = base_of_fine[v];
+      queue.emplace(0.0, static_cast<int>(v));
+    }
+  }
+  while (!queue.empty()) {
+    const auto [d, v] = queue.top();
+    queue.pop();
+    if (d > distance[static_cast<std::size_t>(v)]) continue;
+    for (const int t : fine_incidence.of(v)) {
+      for (int k = 0; k < 3; ++k) {
+        const int w = fine.triangles(t, k);
+        if (w == v) continue;
+        const double through = d + (fine.positions.row(w) - fine.positions.row(v)).norm();
+        auto& known = distance[static_cast<std::size_t>(w)];
+        if (through < known || (through == known && nearest[static_cast<std::size_t>(v)] < nearest[static_cast<std::size_t>(w)])) {
+          known = through;
+          nearest[static_cast<std::size_t>(w)] = nearest[static_cast<std::size_t>(v)];
+          queue.emplace(through, w);
+        }
+      }
+    }
+  }
+  return nearest;
+}
+
+}  // namespace
+
+bool MeshTopology::same_as(const MeshTopology& other) const {
+  return euler_characteristic() == other.euler_characteristic() && components == other.components &&
+         boundary_edges == other.boundary_edges && nonmanifold_edges == other.nonmanifold_edges;
+}
+
+std::string MeshTopology::describe() const {
+  return std::to_string(vertices) + " vertices, Euler characteristic " + std::to_string(euler_characteristic()) + ", " +
+         std::to_string(components) + " components, " + std::to_string(boundary_edges) + " boundary edges, " +
+         std::to_string(nonmanifold_edges) + " non-manifold edges";
+}
+
+MeshTopology mesh_topology(const Mesh& mesh) {
+  MeshTopology topology;
+  topology.triangles = mesh.triangle_count();
+  std::vector<std::uint64_t> edges;
+  edges.reserve(static_cast<std::size_t>(3 * mesh.triangle_count()));
+  std::vector<char> referenced(static_cast<std::size_t>(mesh.vertex_count()), 0);
+  detail::DisjointSets sets(static_cast<std::size_t>(mesh.vertex_count()));
+  for (Eigen::Index t = 0; t < mesh.triangle_count(); ++t) {
+    for (int k = 0; k < 3; ++k) {
+      const int a = mesh.triangles(t, k), b = mesh.triangles(t, (k + 1) % 3);
+      edges.push_back(edge_key(a, b));
+      referenced[static_cast<std::size_t>(a)] = 1;
+      sets.unite(a, b);
+    }
+  }
+  std::sort(edges.begin(), edges.end());
+  for (std::size_t i = 0; i < edges.size();) {
+    std::size_t j = i;
+    while (j < edges.size() && edges[j] == edges[i]) ++j;
+    ++topology.edges;
+    if (j - i == 1) ++topology.boundary_edges;
+    if (j - i > 2) ++topology.nonmanifold_edges;
+    i = j;
+  }
+  for (std::size_t v = 0; v < referenced.size(); ++v) {
+    if (!referenced[v]) continue;
+    ++topology.vertices;
+    if (sets.find(static_cast<int>(v)) == static_cast<int>(v)) ++topology.components;
+  }
+  return topology;
+}
+
+BaseMesh simplify_to_base(const Mesh& fine, Eigen::Index target_vertices) {
+  validate_mesh(fine, "fine mesh");
+  const MeshTopology fine_topology = mesh_topology(fine);
+  const auto identity = [&] {
+    BaseMesh base;
+    base.mesh = fine;
+    base.fine_vertex.resize(static_cast<std::size_t>(fine.vertex_count()));
+    std::iota(base.fine_vertex.begin(), base.fine_vertex.end(), 0);
+    return base;
+  };
+  if (target_vertices >= fine_topology.vertices) return identity();
+
+  const trace::Scope traced("base mesh (edge collapses)", "set-up");
+  const detail::CollapsedMesh collapsed = detail::collapse_edges(fine, target_vertices);
+  BaseMesh base;
+  base.simplification_error = collapsed.largest_error / std::max(bounding_box_diagonal(fine.positions), 1e-300);
+  std::vector<int> base_of_fine(static_cast<std::size_t>(fine.vertex_count()), -1);
+  for (std::size_t v = 0; v < collapsed.kept.size(); ++v) {
+    if (!collapsed.kept[v]) continue;
+    base_of_fine[v] = static_cast<int>(base.fine_vertex.size());
+    base.fine_vertex.push_back(static_cast<int>(v));
+  }
+  base.mesh.positions.resize(static_cast<Eigen::Index>(base.fine_vertex.size()), 3);
+  for (std::size_t j = 0; j < base.fine_vertex.size(); ++j) {
+    base.mesh.positions.row(static_cast<Eigen::Index>(j)) = fine.positions.row(base.fine_vertex[j]);
+  }
+  base.mesh.triangles.resize(collapsed.triangles.rows(), 3);
+  for (Eigen::Index t = 0; t < collapsed.triangles.rows(); ++t) {
+    for (int k = 0; k < 3; ++k) base.mesh.triangles(t, k) = base_of_fine[static_cast<std::size_t>(collapsed.triangles(t, k))];
+  }
+  // The collapses refuse every change of topology; this says so, or why not.
+  const MeshTopology base_topology = mesh_topology(base.mesh);
+  if (!base_topology.same_as(fine_topology)) {
+    throw SolveError("the base mesh of " + std::to_string(base.mesh.vertex_count()) + " vertices has " + base_topology.describe() +
+                     " where the mesh has " + fine_topology.describe());
+  }
+  return base;
+}
+
+DetailEncoding::DetailEncoding(const Mesh& fine, const BaseMesh& base)
+    : base_count_(base.mesh.vertex_count()), base_triangles_(base.mesh.triangles) {
+  const trace::Scope traced("detail encoding", "set-up");
+  const auto n = static_cast<std::size_t>(fine.vertex_count());
+  base_of_fine_.assign(n, -1);
+  for (std::size_t j = 0; j < base.fine_vertex.size(); ++j) base_of_fine_[static_cast<std::size_t>(base.fine_vertex[j])] = static_cast<int>(j);
+  const Incidence fine_incidence = incidence(fine.triangles, fine.vertex_count());
+  const Incidence base_incidence = incidence(base.mesh.triangles, base.mesh.vertex_count());
+  const std::vector<int> nearest = nearest_base_along_surface(fine, base_of_fine_, fine_incidence);
+
+  foot_triangle_.assign(n, -1);
+  barycentric_.setZero(fine.vertex_count(), 2);
+  detail_.setZero(fine.vertex_count(), 3);
+  rest_positions_ = fine.positions;
+  rest_reconstruction_ = fine.positions;
+  const auto& base_positions = base.mesh.positions;
+  auto corner = [&](int t, int k) -> Eigen::Vector3d { return base_positions.row(base_triangles_(t, k)).transpose(); };
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, kRowGrain), [&](const auto& range) {
+    std::vector<int> candidates;
+    for (std::size_t v = range.begin(); v != range.end(); ++v) {
+      const int vertex = static_cast<int>(v);
+      if (base_of_fine_[v] >= 0) {
+        // Its own base vertex as corner 0 of an incident triangle: the foot is the vertex itself.
+        const int j = base_of_fine_[v];
+        const auto around = base_incidence.of(j);
+        if (around.empty()) continue;
+        const int t = around.front();
+        const int k = base_triangles_(t, 0) == j ? 0 : base_triangles_(t, 1) == j ? 1 : 2;
+        foot_triangle_[v] = t;
+        // The weights that pick corner k alone.
+        barycentric_.row(vertex) << (k == 1 ? 1.0 : 0.0), (k == 2 ? 1.0 : 0.0);
+        continue;
+      }
+      if (nearest[v] < 0) continue;
+      // Candidates: the base triangles around the nearest base vertex and around its neighbours.
+      candidates.clear();
+      for (const int t : base_incidence.of(nearest[v])) {
+        for (int k = 0; k < 3; ++k) {
+          for (const int u : base_incidence.of(base_triangles_(t, k))) candidates.push_back(u);
+        }
+      }
+      std::sort(candidates.begin(), candidates.end());
+      candidates.erase(std::unique(candidates.begin(), candidates.end()), candidates.end());
+      Eigen::Vector3d normal = Eigen::Vector3d::Zero();
+      for (const int t : fine_incidence.of(vertex)) {
+        const Eigen::Vector3d a = fine.positions.row(fine.triangles(t, 0));
+        normal += (Eigen::Vector3d(fine.positions.row(fine.triangles(t, 1))) - a).cross(Eigen::Vector3d(fine.positions.row(fine.triangles(t, 2))) - a);
+      }
+      const Eigen::Vector3d p = fine.positions.row(vertex).transpose();
+      // Best: facing the fine surface's way first, then nearest.
+      int best = -1;
+      bool best_faces = false;
+      double best_distance = std::numeric_limits<double>::infinity();
+      Eigen::Vector2d best_weights = Eigen::Vector2d::Zero();
+      for (const int t : candidates) {
+        const Eigen::Vector3d a = corner(t, 0), b = corner(t, 1), c = corner(t, 2);
+        const Eigen::Vector3d area = (b - a).cross(c - a);
+        if (!(area.squaredNorm() > 0.0)) continue;  // degenerate: no frame
+        const Eigen::Vector2d w = closest_point_weights(p, a, b, c);
+        const double distance = (a + w[0] * (b - a) + w[1] * (c - a) - p).squaredNorm();
+        const bool faces = area.dot(normal) > 0.0;
+        if ((faces && !best_faces) || (faces == best_faces && distance < best_distance)) {
+          best = t;
+          best_faces = faces;
+          best_distance = distance;
+          best_weights = w;
+        }
+      }
+      if (best < 0) continue;
+      const Eigen::Vector3d a = corner(best, 0), b = corner(best, 1), c = corner(best, 2);
+      const Eigen::Vector3d foot = a + best_weights[0] * (b - a) + best_weights[1] * (c - a);
+      foot_triangle_[v] = best;
+      barycentric_.row(vertex) = best_weights.transpose();
+      detail_.row(vertex) = (triangle_frame(a, b, c).transpose() * (p - foot)).transpose();
+      rest_reconstruction_.row(vertex) = reconstructed(a, b, c, best_weights[0], best_weights[1], detail_.row(vertex).transpose()).transpose();
+    }
+  });
+  for (std::size_t v = 0; v < n; ++v) largest_detail_ = std::max(largest_detail_, detail_.row(static_cast<Eigen::Index>(v)).norm());
+}
+
+void DetailEncoding::reconstruct(const Eigen::MatrixXd& base_positions, Eigen::MatrixXd& fine_positions) const {
+  if (base_positions.rows() != base_count_ || base_positions.cols() != 3) {
+    throw std::invalid_argument("DetailEncoding::reconstruct: the base positions are " + std::to_string(base_positions.rows()) + "×" +
+                                std::to_string(base_positions.cols()) + " for a base of " + std::to_string(base_count_) + " vertices");
+  }
+  const trace::Scope traced("fine mesh from the base", "update");
+  fine_positions.resize(fine_count(), 3);
+  tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, fine_count(), kRowGrain), [&](const auto& range) {
+    for (Eigen::Index v = range.begin(); v != range.end(); ++v) {
+      const auto i = static_cast<std::size_t>(v);
+      const int t = foot_triangle_[i];
+      if (base_of_fine_[i] >= 0) {
+        fine_positions.row(v) = base_positions.row(base_of_fine_[i]);
+      } else if (t < 0) {
+        fine_positions.row(v) = rest_positions_.row(v);
+      } else {
+        const Eigen::Vector3d a = base_positions.row(base_triangles_(t, 0)).transpose();
+        const Eigen::Vector3d b = base_positions.row(base_triangles_(t, 1)).transpose();
+        const Eigen::Vector3d c = base_positions.row(base_triangles_(t, 2)).transpose();
+        const Eigen::Vector3d now = reconstructed(a, b, c, barycentric_(v, 0), barycentric_(v, 1), detail_.row(v).transpose());
+        fine_positions.row(v) = rest_positions_.row(v) + (now.transpose() - rest_reconstruction_.row(v));
+      }
+    }
+  });
+}
+
+Eigen::VectorXd DetailEncoding::interpolate(const Eigen::VectorXd& base_values) const {
+  if (base_values.size() != base_count_) throw std::invalid_argument("DetailEncoding::interpolate: one value per base vertex is needed");
+  Eigen::VectorXd fine(fine_count());
+  for (Eigen::Index v = 0; v < fine_count(); ++v) {
+    const auto i = static_cast<std::size_t>(v);
+    const int t = foot_triangle_[i];
+    if (base_of_fine_[i] >= 0) fine[v] = base_values[base_of_fine_[i]];
+    else if (t < 0) fine[v] = 0.0;
+    else {
+      const double wb = barycentric_(v, 0), wc = barycentric_(v, 1);
+      fine[v] = (1.0 - wb - wc) * base_values[base_triangles_(t, 0)] + wb * base_values[base_triangles_(t, 1)] +
+                wc * base_values[base_triangles_(t, 2)];
+    }
+  }
+  return fine;
+}
+
+std::array<int, 3> DetailEncoding::foot_corners(int fine_vertex) const {
+  const int t = foot_triangle_[static_cast<std::size_t>(fine_vertex)];
+  if (t < 0) return {-1, -1, -1};
+  return {base_triangles_(t, 0), base_triangles_(t, 1), base_triangles_(t, 2)};
+}
+
+EditConstraints base_constraints(const EditConstraints& fine, const DetailEncoding& encoding) {
+  const auto base_count = static_cast<std::size_t>(encoding.base_count());
+  // Owner of each base vertex among the fine sets: −2 none, −1 fixed, h ≥ 0 handle h.
+  std::vector<int> owner(base_count, -2);
+  auto carry_own = [&](const std::vector<int>& vertices, int who) {
+    std::size_t carried = 0;
+    for (const int v : vertices) {
+      const int j = encoding.base_vertex(v);
+      if (j >= 0 && owner[static_cast<std::size_t>(j)] == -2) {
+        owner[static_cast<std::size_t>(j)] = who;
+        ++carried;
+      }
+    }
+    return carried;
+  };
+  std::vector<std::size_t> carried(fine.handles.size() + 1);
+  carried[0] = carry_own(fine.fixed, -1);
+  for (std::size_t h = 0; h < fine.handles.size(); ++h) carried[h + 1] = carry_own(fine.handles[h], static_cast<int>(h));
+  // Sets below the base's resolution: the corners of their feet.
+  auto carry_feet = [&](const std::vector<int>& vertices, int who) {
+    for (const int v : vertices) {
+      for (const int j : encoding.foot_corners(v)) {
+        if (j >= 0 && owner[static_cast<std::size_t>(j)] == -2) owner[static_cast<std::size_t>(j)] = who;
+      }
+    }
+  };
+  if (carried[0] == 0) carry_feet(fine.fixed, -1);
+  for (std::size_t h = 0; h < fine.handles.size(); ++h) {
+    if (carried[h + 1] == 0) carry_feet(fine.handles[h], static_cast<int>(h));
+  }
+  EditConstraints base;
+  base.handles.resize(fine.handles.size());
+  for (std::size_t j = 0; j < base_count; ++j) {
+    if (owner[j] == -1) base.fixed.push_back(static_cast<int>(j));
+    else if (owner[j] >= 0) base.handles[static_cast<std::size_t>(owner[j])].push_back(static_cast<int>(j));
+  }
+  if (!fine.region_of_interest.empty()) {
+    std::vector<char> inside(base_count, 0);
+    for (const int v : fine.region_of_interest) {
+      const int j = encoding.base_vertex(v);
+      if (j >= 0) inside[static_cast<std::size_t>(j)] = 1;
+      else {
+        for (const int corner : encoding.foot_corners(v)) {
+          if (corner >= 0) inside[static_cast<std::size_t>(corner)] = 1;
+        }
+      }
+    }
+    for (std::size_t j = 0; j < base_count; ++j) {
+      if (inside[j]) base.region_of_interest.push_back(static_cast<int>(j));
+    }
+  }
+  return base;
+}
+
+}  // namespace hdeform
