@@ -73,6 +73,7 @@ class BenchCommand final : public BatchCommand {
                         "where both parents are); measures the backends, the default schedule and the pipeline only")
         ->capture_default_str();
     command->add_option("--threads", threads_, "Worker threads (default: all cores)");
+    resolution_.add_options(*command);
     command->add_option("--out", out_path_, "Also write the JSON report to this file");
     command->add_flag("--quiet", quiet_, "No progress on stderr");
     trace_.add_options(*command);
@@ -167,7 +168,7 @@ class BenchCommand final : public BatchCommand {
         samples.push_back(milliseconds_since(update_start));
         const auto& t = deformer.last_update();
         for (const auto& [name, value] : {std::pair{"field", t.field_ms}, {"maps", t.maps_ms}, {"targets", t.targets_ms},
-                                          {"rhs", t.rhs_ms}, {"solve", t.solve_ms}, {"write", t.write_ms}}) {
+                                          {"rhs", t.rhs_ms}, {"solve", t.solve_ms}, {"write", t.write_ms}, {"detail", t.detail_ms}}) {
           stage_samples[name].push_back(value);
         }
       }
@@ -182,8 +183,14 @@ class BenchCommand final : public BatchCommand {
     {
       progress("open and re-selection");
       const auto setup_start = Clock::now();
-      const Deformer opened(mesh, constraints);
+      const Deformer opened(mesh, constraints, options_for(default_backend(), default_schedule()));
       report["open_ms"] = read_ms + milliseconds_since(setup_start);
+      report["resolution"] = to_string(opened.resolution());
+      report["solved_vertices"] = opened.solved_mesh().vertex_count();
+      report["base_ms"] = opened.timings().base_ms;
+      // A base mesh is built once per mesh: every deformer below shares it (an exact one builds
+      // its own operators, whose time each reports).
+      if (opened.resolution() == Resolution::Multiresolution) shared_operators_ = opened.operators();
       std::vector<double> samples;
       for (auto& handle : spread_handles(mesh, constraints.fixed, constraints.handles[0].size())) {
         EditConstraints reselected = constraints;
@@ -201,7 +208,7 @@ class BenchCommand final : public BatchCommand {
     for (const auto backend : kSolverBackends) {
       if (!backend_available(backend)) continue;
       progress("backend " + std::string(to_string(backend)));
-      Deformer deformer(mesh, constraints, DeformerOptions::solver(backend));
+      Deformer deformer(mesh, constraints, shared_operators_, options_for(backend, default_schedule()));
       Eigen::MatrixXd positions;
       const auto update = drag(deformer, std::span(&transform, 1), positions);
       report["backends"][std::string(to_string(backend))] = {
@@ -231,7 +238,7 @@ class BenchCommand final : public BatchCommand {
       progress("schedule " + name);
       Eigen::MatrixXd positions;
       {
-        Deformer deformer(mesh, constraints, DeformerOptions::solver(default_backend(), schedule));
+        Deformer deformer(mesh, constraints, shared_operators_, options_for(default_backend(), schedule));
         nlohmann::json stages;
         report["one_handle_update_ms"][name] = to_json(drag(deformer, std::span(&transform, 1), positions, &stages));
         if (schedule == default_schedule()) report["one_handle_stage_ms"] = stages;
@@ -251,7 +258,7 @@ class BenchCommand final : public BatchCommand {
         report["solve_xyz_ms"][name] = to_json(summarize(samples));
       }
       {
-        Deformer deformer(mesh, two_handles, DeformerOptions::solver(default_backend(), schedule));
+        Deformer deformer(mesh, two_handles, shared_operators_, options_for(default_backend(), schedule));
         nlohmann::json stages;
         report["two_handle_update_ms"][name] = to_json(drag(deformer, two_transforms, positions, &stages));
         if (schedule == default_schedule()) report["two_handle_stage_ms"] = stages;
@@ -266,7 +273,7 @@ class BenchCommand final : public BatchCommand {
     // The update as the editor runs it: posted to the pipeline's thread, one request at a time.
     {
       progress("pipeline");
-      Deformer deformer(mesh, constraints);
+      Deformer deformer(mesh, constraints, shared_operators_, options_for(default_backend(), default_schedule()));
       std::vector<double> samples;
       UpdatePipeline pipeline(deformer, [&](const UpdatePipeline::Result& result) { samples.push_back(result.update_ms); });
       for (int k = 0; k <= steps_; ++k) {
@@ -282,13 +289,19 @@ class BenchCommand final : public BatchCommand {
   }
 
  private:
+  DeformerOptions options_for(SolverBackend backend, SolveSchedule schedule) const {
+    DeformerOptions options = DeformerOptions::solver(backend, schedule);
+    resolution_.apply(options);
+    return options;
+  }
+
   // What recording a trace costs a drag update: medians with the recorder off and on, in
   // alternating blocks (a recording of --trace's own goes on; otherwise a scratch one is made and
   // dropped).
   void bench_trace_overhead(const Mesh& mesh, const EditConstraints& constraints, const HandleTransform& transform, nlohmann::json& report,
                             const Progress& progress) const {
     progress("trace overhead");
-    Deformer deformer(mesh, constraints);
+    Deformer deformer(mesh, constraints, shared_operators_, options_for(default_backend(), default_schedule()));
     Eigen::MatrixXd positions;
     const bool recording = trace_.wanted();
     if (!recording) trace::start(std::size_t{1} << 16);
@@ -328,9 +341,9 @@ class BenchCommand final : public BatchCommand {
                         const Progress& progress) const {
     constexpr int kRefineDragSteps = 10, kRefineDragIterations = 5, kPlainCap = 3000;
     progress("refinement iterations");
-    DeformerOptions options;
+    DeformerOptions options = options_for(default_backend(), default_schedule());
     options.prepare_refinement = true;
-    Deformer deformer(mesh, constraints, options);
+    Deformer deformer(mesh, constraints, shared_operators_, options);
     Eigen::MatrixXd positions;
     std::map<std::string, std::vector<double>> stage_samples;
     std::vector<double> samples;
@@ -370,17 +383,17 @@ class BenchCommand final : public BatchCommand {
       RefinementOptions refinement;
       refinement.accelerate = accelerate;
       refinement.tolerance = 1e-12;  // never stop early: within 1% is what is measured
-      DeformerOptions fresh;
+      DeformerOptions fresh = options_for(default_backend(), default_schedule());
       fresh.refinement = refinement;
       fresh.prepare_refinement = true;
       const std::string name = accelerate ? "accelerated" : "plain";
       {
-        Deformer cold(mesh, constraints, fresh);
+        Deformer cold(mesh, constraints, shared_operators_, fresh);
         cold.deform(std::span(&transform, 1), positions);
         cold.refine(positions, 0);
         convergence[name]["from_paper"] = until_within(cold, kPlainCap);
       }
-      Deformer dragged(mesh, constraints, fresh);
+      Deformer dragged(mesh, constraints, shared_operators_, fresh);
       for (int step = 1; step <= kRefineDragSteps; ++step) {
         const HandleTransform at = transform.at_fraction(static_cast<double>(step) / kRefineDragSteps);
         dragged.deform(std::span(&at, 1), positions, step == 1 ? RefinementStart::FromPapersResult : RefinementStart::FromLastEdit);
@@ -407,6 +420,8 @@ class BenchCommand final : public BatchCommand {
 
   MeshSource source_;
   TraceChoice trace_;
+  ResolutionChoice resolution_;
+  std::shared_ptr<const MeshOperators> shared_operators_;  // multiresolution: the base, built once
   std::string fixed_path_;
   std::string handle_path_;
   std::string transform_path_;

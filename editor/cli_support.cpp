@@ -104,6 +104,25 @@ void SolverChoice::add_options(CLI::App& command) {
   command.add_option("--threads", threads, "Worker threads (default: all cores)");
 }
 
+void ResolutionChoice::add_options(CLI::App& command) {
+  command.add_flag("--exact", exact,
+                   "Solve on every vertex of the mesh, however large (default: from " + std::to_string(kMultiresolutionFrom) +
+                       " vertices on, on a base mesh that carries the detail)");
+  command.add_flag("--multiresolution", multiresolution, "Solve on a base mesh that carries the detail, whatever the mesh's size");
+  command.add_option("--base-vertices", base_vertices, "Multiresolution: the base mesh's size in vertices")->capture_default_str();
+}
+
+Resolution ResolutionChoice::resolution() const {
+  if (exact && multiresolution) throw UsageError("--exact and --multiresolution contradict each other: give one");
+  return exact ? Resolution::Exact : multiresolution ? Resolution::Multiresolution : Resolution::Automatic;
+}
+
+void ResolutionChoice::apply(DeformerOptions& options) const {
+  if (base_vertices < 4) throw UsageError("--base-vertices must be at least 4");
+  options.resolution = resolution();
+  options.base_vertices = base_vertices;
+}
+
 void TraceChoice::add_options(CLI::App& command) {
   command.add_option("--trace", path, "Write a timeline of the run to this file (Chrome trace-event JSON: Perfetto, chrome://tracing)");
 }

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "hdeform/constraints.h"
+#include "hdeform/deformer.h"
 #include "hdeform/handle_transform.h"
 #include "hdeform/mesh.h"
 #include "hdeform/refinement.h"
@@ -70,6 +71,18 @@ struct SolverChoice {
   // Limits TBB to --threads for the lifetime of the returned object (none when 0).
   std::unique_ptr<tbb::global_control> apply_threads() const;
   int effective_threads() const;
+};
+
+// --exact, --multiresolution, --base-vertices N: where the solves run (deformer.h, Resolution).
+struct ResolutionChoice {
+  bool exact = false;
+  bool multiresolution = false;
+  Eigen::Index base_vertices = kDefaultBaseVertices;
+
+  void add_options(CLI::App& command);
+  Resolution resolution() const;
+  // Sets options.resolution and options.base_vertices; throws UsageError for a contradiction.
+  void apply(DeformerOptions& options) const;
 };
 
 // --refine N|auto, --refine-tolerance, --no-acceleration: the as-rigid-as-possible refinement.

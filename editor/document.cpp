@@ -30,6 +30,16 @@ Document::Document(Session session, Mesh base, DeformerOptions options, Publish 
     : mesh_name_(session.mesh), base_(std::move(base)), applied_(session.applied), adjacency_(base_.triangles, base_.vertex_count()),
       options_(options), publish_(std::move(publish)) {
   check_session_against_mesh(session, base_.vertex_count(), SessionSource{"session", {}});
+  // Where this session solves, decided once: a session that says keeps it, so that every stage,
+  // the saved file and its replay solve alike.
+  if (session.resolution != Resolution::Automatic) {
+    options_.resolution = session.resolution;
+    options_.base_vertices = session.base_vertices;
+  } else {
+    options_.resolution = resolution_for(base_.vertex_count(), options_.resolution);
+  }
+  session.resolution = options_.resolution;
+  session.base_vertices = options_.base_vertices;
   auto rest = std::make_shared<Mesh>(base_);
   Session applied_only = session;
   applied_only.current = {};
@@ -70,6 +80,8 @@ Session Document::session() const {
   int active = 0;
   for (int h = 0; h < active_handle_ && h < static_cast<int>(handle_sizes_.size()); ++h) active += handle_sizes_[static_cast<std::size_t>(h)] > 0 ? 1 : 0;
   session.active_handle = session.current.handles.empty() ? 0 : std::min(active, static_cast<int>(session.current.handles.size()) - 1);
+  session.resolution = options_.resolution;
+  session.base_vertices = options_.base_vertices;
   return session;
 }
 
@@ -306,10 +318,15 @@ std::string Document::solver_message() const {
 
 const Eigen::VectorXd* Document::field() const { return deformer_ ? &deformer_->field() : nullptr; }
 const DeformerTimings* Document::setup_timings() const { return deformer_ ? &deformer_->timings() : nullptr; }
+Eigen::Index Document::solved_vertex_count() const { return deformer_ ? deformer_->solved_mesh().vertex_count() : 0; }
 std::vector<std::string> Document::warnings() const { return deformer_ ? deformer_->warnings() : std::vector<std::string>{}; }
 
 void Document::set_options(const DeformerOptions& options) {
+  const DeformerOptions decided = options_;
   options_ = options;
+  // Where the session solves is part of it (decided when it opened).
+  options_.resolution = decided.resolution;
+  options_.base_vertices = decided.base_vertices;
   stop_pipeline();
   deformer_.reset();
   failure_.clear();

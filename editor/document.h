@@ -104,6 +104,8 @@ class Document {
   // The harmonic field of the ready deformer, or nullptr.
   const Eigen::VectorXd* field() const;
   const DeformerTimings* setup_timings() const;
+  // The vertices the solves run on (the base's with multiresolution); 0 before a set-up.
+  Eigen::Index solved_vertex_count() const;
   // What the ready deformer found about the mesh and the selection (Deformer::warnings).
   std::vector<std::string> warnings() const;
   double last_update_ms() const { return last_update_ms_.load(); }

@@ -40,6 +40,7 @@ class EditCommand final : public BatchCommand {
     command->add_option("--steps", steps_, "Simulate a drag: go from the identity to the transform in this many updates")
         ->capture_default_str();
     solver_.add_options(*command);
+    resolution_.add_options(*command);
     refine_.add_options(*command);
     trace_.add_options(*command);
     command->add_flag("--quiet", quiet_, "No progress or warnings on stderr");
@@ -57,6 +58,9 @@ class EditCommand final : public BatchCommand {
         throw UsageError("--session replaces --mesh, --shape, --fixed, --roi, --handle and --transform");
       }
       if (refine_.iterations != "0") throw UsageError("--session carries its own refinement setting (each stage's \"refine\"); leave out --refine");
+      if (resolution_.exact || resolution_.multiresolution) {
+        throw UsageError("--session says where it solves (its \"resolution\"); leave out --exact and --multiresolution");
+      }
     } else {
       source_.require();
     }
@@ -82,6 +86,7 @@ class EditCommand final : public BatchCommand {
     const auto threads = solver_.apply_threads();
     const Progress progress(quiet_);
     DeformerOptions options = DeformerOptions::solver(solver_.parsed_backend(), solver_.parsed_schedule());
+    resolution_.apply(options);
     int refine_iterations = refine_.parsed_iterations();
     options.refinement = refine_.options();
     options.prepare_refinement = refine_iterations > 0;
@@ -99,6 +104,8 @@ class EditCommand final : public BatchCommand {
       progress("reading " + session.mesh);
       loaded.mesh = load_session_mesh(session, &session_source);
       check_session_against_mesh(session, loaded.mesh.vertex_count(), session_source);
+      options.resolution = session.resolution;
+      if (session.resolution == Resolution::Multiresolution) options.base_vertices = session.base_vertices;
       if (!session.applied.empty()) {
         progress("replaying " + std::to_string(session.applied.size()) + " applied stage(s)");
         Session applied_only = session;
@@ -216,8 +223,11 @@ class EditCommand final : public BatchCommand {
         {"backend", to_string(options.backend)},
         {"schedule", to_string(options.schedule)},
         {"threads", solver_.effective_threads()},
+        {"resolution", to_string(deformer.resolution())},
+        {"solved_vertices", deformer.solved_mesh().vertex_count()},
         {"laplacian_ms", timings.laplacian_ms},
         {"factor_ms", timings.factor_ms},
+        {"base_ms", timings.base_ms},
         {"field_ms", timings.field_ms},
         {"steps", steps_},
         {"step_ms", to_json(summarize(step_ms))},
@@ -250,6 +260,7 @@ class EditCommand final : public BatchCommand {
  private:
   MeshSource source_;
   SolverChoice solver_;
+  ResolutionChoice resolution_;
   RefineChoice refine_;
   TraceChoice trace_;
   std::string session_path_;

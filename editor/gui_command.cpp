@@ -36,6 +36,7 @@ class GuiCommand final : public BatchCommand {
         ->check(CLI::IsMember({"auto", "off"}))
         ->capture_default_str();
     command->add_flag("--validation", options_.validation, "Enable the Khronos validation layer");
+    resolution_.add_options(*command);
     command->add_flag("!--no-refine", options_.refine,
                       "A new session starts with the as-rigid-as-possible refinement off (the paper's method alone; a panel toggle)");
     command->add_option("--recovery-file", options_.recovery_file, "Crash-recovery file (default: $HDEFORM_RECOVERY_FILE or ~/.local/state/hdeform)");
@@ -66,11 +67,16 @@ class GuiCommand final : public BatchCommand {
     if (options_.transfer.source_rest.empty() != options_.transfer.target.empty()) {
       throw UsageError("transfer mode needs both --transfer-source and --transfer-target");
     }
+    DeformerOptions solver;
+    resolution_.apply(solver);
+    options_.resolution = solver.resolution;
+    options_.base_vertices = solver.base_vertices;
     return run_editor(options_);
   }
 
  private:
   EditorOptions options_;
+  ResolutionChoice resolution_;
 };
 
 }  // namespace

@@ -187,18 +187,22 @@ bool EditStage::operator==(const EditStage& other) const {
 }
 
 bool Session::operator==(const Session& other) const {
-  return mesh == other.mesh && applied == other.applied && current == other.current && active_handle == other.active_handle;
+  return mesh == other.mesh && applied == other.applied && current == other.current && active_handle == other.active_handle &&
+         resolution == other.resolution && (resolution != Resolution::Multiresolution || base_vertices == other.base_vertices);
 }
 
 json to_json(const Session& session) {
   json applied = json::array();
   for (const auto& stage : session.applied) applied.push_back(stage_json(stage));
-  return {{"format", kFormat},
-          {"version", kVersion},
-          {"mesh", session.mesh},
-          {"applied", applied},
-          {"current", stage_json(session.current)},
-          {"active_handle", session.active_handle}};
+  json out = {{"format", kFormat},
+              {"version", kVersion},
+              {"mesh", session.mesh},
+              {"applied", applied},
+              {"current", stage_json(session.current)},
+              {"active_handle", session.active_handle}};
+  out["resolution"] = to_string(session.resolution);
+  if (session.resolution == Resolution::Multiresolution) out["base_vertices"] = session.base_vertices;
+  return out;
 }
 
 namespace {
@@ -254,6 +258,20 @@ Session session_from_json(const json& value, const SessionSource& source) {
   }
   if (session.active_handle < 0 || (session.active_handle > 0 && session.active_handle >= static_cast<int>(session.current.handles.size()))) {
     reader.fail("/active_handle", "no handle " + std::to_string(session.active_handle));
+  }
+  const auto& resolution = reader.member(value, "", "resolution", false);
+  session.resolution = Resolution::Exact;  // absent: a session from before multiresolution
+  if (!resolution.is_null()) {
+    const auto parsed = resolution.is_string() ? parse_resolution(resolution.get<std::string>()) : std::nullopt;
+    if (!parsed) reader.fail("/resolution", "expected \"exact\", \"multiresolution\" or \"automatic\"");
+    session.resolution = *parsed;
+  }
+  const auto& base_vertices = reader.member(value, "", "base_vertices", false);
+  if (session.resolution == Resolution::Multiresolution) {
+    if (!base_vertices.is_number_integer() || base_vertices.get<std::int64_t>() < 4) {
+      reader.fail("/base_vertices", "multiresolution needs the base mesh's size: an integer, at least 4");
+    }
+    session.base_vertices = base_vertices.get<Eigen::Index>();
   }
   return session;
 }
@@ -367,6 +385,8 @@ Eigen::MatrixXd replay_session(const Session& session, const Mesh& base, const D
   auto run_stage = [&](const EditStage& stage) {
     DeformerOptions stage_options = options;
     stage_options.prepare_refinement = stage.refine;
+    stage_options.resolution = session.resolution;
+    if (session.resolution == Resolution::Multiresolution) stage_options.base_vertices = session.base_vertices;
     Deformer deformer(rest, stage.constraints(), stage_options, progress);
     if (stage.refine && progress) progress("refining until converged");
     return stage_result(deformer, stage);

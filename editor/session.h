@@ -45,6 +45,12 @@ struct Session {
   std::vector<EditStage> applied;
   EditStage current;
   int active_handle = 0;
+  // Where the editor solved (Deformer::resolution): Exact or Multiresolution on a base of
+  // base_vertices, so that a replay solves alike. Automatic (decided by the mesh's size when
+  // opened or replayed) in a session the editor has not opened yet; "exact" where a file has none
+  // (written before multiresolution).
+  Resolution resolution = Resolution::Automatic;
+  Eigen::Index base_vertices = kDefaultBaseVertices;
 
   bool operator==(const Session& other) const;
 };
@@ -88,7 +94,8 @@ Mesh load_session_mesh(const Session& session, const SessionSource* source = nul
 Eigen::MatrixXd stage_result(Deformer& deformer, const EditStage& stage);
 
 // The rest shape after the applied stages, then the current stage's result (the rest shape
-// itself when the current stage has no handle). `progress` as for Deformer.
+// itself when the current stage has no handle), solved where the session says (its resolution
+// and base_vertices replace options'). `progress` as for Deformer.
 Eigen::MatrixXd replay_session(const Session& session, const Mesh& base, const DeformerOptions& options,
                                const ProgressCallback& progress = {});
 

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "gui/transfer_view.h"
+#include "hdeform/deformer.h"
 
 namespace hdeform::cli {
 
@@ -27,6 +28,10 @@ struct EditorOptions {
   std::string proxy = "auto";   // auto: a simplified mesh while a large one moves on a CPU device (motion_detail.h); off
   bool validation = false;
   bool refine = true;   // a new session refines (as-rigid-as-possible); a session file says for itself
+  // Where a new session solves (a session file says for itself): Automatic decides by the mesh's
+  // size (multiresolution from kMultiresolutionFrom vertices).
+  Resolution resolution = Resolution::Automatic;
+  Eigen::Index base_vertices = kDefaultBaseVertices;
   std::filesystem::path recovery_file;  // empty: default_recovery_path()
   std::string restore = "ask";          // ask, yes or no, when a recovery file is found
   std::string screenshot_dir = ".";

@@ -184,7 +184,10 @@ class EditorApp {
 
   template <class Load>
   void start_load(const std::string& what, Load load) {
-    load_.start("Loading " + what, [load] {
+    DeformerOptions document_options;
+    document_options.resolution = options_.resolution;
+    document_options.base_vertices = options_.base_vertices;
+    load_.start("Loading " + what, [load, document_options] {
       auto files = load();  // (session, mesh) or (session, mesh, a problem with the lists given beside the mesh)
       Loaded loaded;
       loaded.session = std::move(std::get<0>(files));
@@ -192,7 +195,7 @@ class EditorApp {
       if constexpr (std::tuple_size_v<decltype(files)> == 3) loaded.problem = std::move(std::get<2>(files));
       // Replaying applied stages and the checks run here, off the frame loop; the publisher is
       // attached when the document is installed.
-      loaded.document = std::make_unique<Document>(loaded.session, loaded.mesh, DeformerOptions{}, Document::Publish{});
+      loaded.document = std::make_unique<Document>(loaded.session, loaded.mesh, document_options, Document::Publish{});
       return loaded;
     }, [] { glfwPostEmptyEvent(); });
   }

@@ -151,6 +151,18 @@ void EditorApp::draw_controls() {
     solver_options.backend = backends[static_cast<std::size_t>(backend)];
     document_->set_options(solver_options);
   }
+  if (document_->options().resolution == Resolution::Multiresolution) {
+    const Eigen::Index base = document_->solved_vertex_count();
+    ImGui::TextWrapped("Multiresolution: solved on a base of %ld of the %ld vertices", static_cast<long>(base > 0 ? base : document_->options().base_vertices),
+                       static_cast<long>(document_->vertex_count()));
+    if (ImGui::IsItemHovered()) {
+      ImGui::SetTooltip("Painting and picking use every vertex; the update and the refinement solve on a simplified base mesh,\n"
+                        "and the fine detail follows it in local frames. Fixed and handle vertices are exact. Saved with the\n"
+                        "session, so `hdeform edit --session` solves alike; `hdeform gui --exact` solves on every vertex.");
+    }
+  } else {
+    ImGui::Text("Exact: solved on all %ld vertices", static_cast<long>(document_->vertex_count()));
+  }
   switch (document_->solver_state()) {
     case Document::SolverState::NoHandle: ImGui::TextWrapped("Paint a handle (3) to deform."); break;
     case Document::SolverState::Building:

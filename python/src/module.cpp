@@ -194,7 +194,7 @@ class PyDeformer {
  public:
   PyDeformer(const py::object& positions, const py::object& triangles, const py::object& fixed, const py::object& handles,
              const py::object& roi, const std::string& backend, const py::object& refine, double refine_tolerance, double refine_settle,
-             bool acceleration, const py::object& progress) {
+             bool acceleration, const py::object& progress, const std::string& resolution, Eigen::Index base_vertices) {
     Mesh mesh = mesh_argument(positions, triangles, "mesh");
     EditConstraints constraints;
     constraints.fixed = indices_argument(fixed, "fixed");
@@ -205,6 +205,13 @@ class PyDeformer {
     for (const auto handle : handles.cast<py::sequence>()) constraints.handles.push_back(indices_argument(handle, "handles[" + std::to_string(h++) + "]"));
     if (!roi.is_none()) constraints.region_of_interest = indices_argument(roi, "roi");
     DeformerOptions options = DeformerOptions::solver(backend_argument(backend));
+    const auto parsed_resolution = resolution == "auto" ? std::optional(Resolution::Automatic) : parse_resolution(resolution);
+    if (!parsed_resolution || resolution == "automatic") {
+      throw py::value_error("resolution must be 'auto', 'exact' or 'multiresolution', not '" + resolution + "'");
+    }
+    if (base_vertices < 4) throw py::value_error("base_vertices must be at least 4");
+    options.resolution = *parsed_resolution;
+    options.base_vertices = base_vertices;
     if (!(refine_tolerance > 0.0 && refine_tolerance < 1.0)) throw py::value_error("refine_tolerance must lie between 0 and 1");
     if (!(refine_settle >= 0.0 && refine_settle < 1.0)) throw py::value_error("refine_settle must be 0 (off) or a fraction below 1");
     options.refinement.tolerance = refine_tolerance;
@@ -287,10 +294,14 @@ class PyDeformer {
     result["laplacian_ms"] = deformer_->timings().laplacian_ms;
     result["factor_ms"] = deformer_->timings().factor_ms;
     result["field_ms"] = deformer_->timings().field_ms;
+    result["base_ms"] = deformer_->timings().base_ms;
     result["last_update_ms"] = deformer_->last_update().total_ms;
+    result["last_detail_ms"] = deformer_->last_update().detail_ms;
     return result;
   }
   Eigen::Index vertex_count() const { return deformer_->rest().vertex_count(); }
+  std::string resolution() const { return std::string(to_string(deformer_->resolution())); }
+  Eigen::Index solved_vertex_count() const { return deformer_->solved_mesh().vertex_count(); }
   std::size_t handle_count() const { return deformer_->handle_count(); }
 
  private:
@@ -529,16 +540,21 @@ PYBIND11_MODULE(_core, m) {
                std::to_string(t.angle * 180.0 / M_PI) + " degrees, scale " + std::to_string(t.scale) + ">";
       });
 
+  static const std::string deformer_doc =
+      "Sets up the solve (Laplacian, factorization, field). refine: as-rigid-as-possible iterations after each "
+      "deform(), a number or 'auto' (until refine_tolerance, or refine_settle when > 0); progress: called with a line "
+      "for each set-up stage; resolution: 'exact' (every vertex an unknown), 'multiresolution' (the solves on a base "
+      "mesh of about base_vertices vertices, the detail carried in its local frames; fixed and handle vertices exact) "
+      "or 'auto' (multiresolution from " + std::to_string(kMultiresolutionFrom) + " vertices on)";
   py::class_<PyDeformer>(m, "Deformer", "The editing engine: set up once per mesh and vertex classes, then deform per edit")
       .def(py::init<const py::object&, const py::object&, const py::object&, const py::object&, const py::object&, const std::string&,
-                    const py::object&, double, double, bool, const py::object&>(),
+                    const py::object&, double, double, bool, const py::object&, const std::string&, Eigen::Index>(),
            py::arg("V"), py::arg("F"), py::arg("fixed"), py::arg("handles"), py::arg("roi") = py::none(),
            py::arg("backend") = std::string(to_string(default_backend())), py::arg("refine") = 0,
            py::arg("refine_tolerance") = RefinementOptions{}.tolerance, py::arg("refine_settle") = RefinementOptions{}.settle,
-           py::arg("acceleration") = true, py::arg("progress") = py::none(),
-           "Sets up the solve (Laplacian, factorization, field). refine: as-rigid-as-possible iterations after each "
-           "deform(), a number or 'auto' (until refine_tolerance, or refine_settle when > 0); progress: called with a line "
-           "for each set-up stage")
+           py::arg("acceleration") = true, py::arg("progress") = py::none(), py::arg("resolution") = "auto",
+           py::arg("base_vertices") = kDefaultBaseVertices,
+           deformer_doc.c_str())
       .def("deform", &PyDeformer::deform, py::arg("transforms"), py::arg("refine") = py::none(),
            "Deformed positions (n x 3) for one transform per handle (a Transform or a 3x4 / 4x4 array); refined as the "
            "constructor's refine says, or as `refine` (a number or 'auto') says for this call. Refined from the paper's "
@@ -555,6 +571,9 @@ PYBIND11_MODULE(_core, m) {
                     "Where a refinement until converged stops: the energy falls by less than this fraction in an iteration")
       .def_property_readonly("timings", &PyDeformer::timings, "Set-up and last update, milliseconds")
       .def_property_readonly("vertex_count", &PyDeformer::vertex_count)
+      .def_property_readonly("resolution", &PyDeformer::resolution, "Where the solves run: 'exact' or 'multiresolution'")
+      .def_property_readonly("solved_vertex_count", &PyDeformer::solved_vertex_count,
+                             "The vertices the solves run on: the base mesh's with multiresolution, else vertex_count")
       .def_property_readonly("handle_count", &PyDeformer::handle_count);
 
   m.def("read_mesh", &read_mesh_binding, py::arg("path"), "(V, F) from an OBJ, PLY, OFF or STL file");

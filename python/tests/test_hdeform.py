@@ -115,6 +115,24 @@ def test_the_settle_stop_is_the_editors_and_the_command_lines(tmp_path):
         hdeform.Deformer(cactus["V"], cactus["F"], cactus["fixed"], cactus["handles"], refine="auto", refine_settle=-1.0)
 
 
+def test_multiresolution_equals_the_command_lines_and_keeps_the_constraints_exact(tmp_path):
+    cactus = hdeform.shape("cactus", 32)
+    V, F, fixed, handles = cactus["V"], cactus["F"], cactus["fixed"], cactus["handles"]
+    base = len(V) // 4
+    expected = cli_edit(tmp_path, "--shape", "cactus", "--resolution", 32, "--multiresolution", "--base-vertices", base, "--refine", 5)
+    deformer = hdeform.Deformer(V, F, fixed, handles, resolution="multiresolution", base_vertices=base, refine=5)
+    assert deformer.resolution == "multiresolution"
+    assert deformer.solved_vertex_count < len(V)
+    shown = deformer.deform([cactus["transform"]])
+    assert np.array_equal(shown, expected)
+    assert np.array_equal(shown[fixed], V[fixed])
+    assert np.array_equal(deformer.deform(np.eye(4)), V), "nothing moved: the mesh to the last bit"
+    small = hdeform.Deformer(V, F, fixed, handles)
+    assert small.resolution == "exact" and small.solved_vertex_count == len(V), "a small mesh solves exactly by default"
+    with pytest.raises(ValueError, match="resolution"):
+        hdeform.Deformer(V, F, fixed, handles, resolution="coarse")
+
+
 @needs_shared
 def test_a_benchmark_case_equals_the_command_line_bit_for_bit(tmp_path):
     base = SHARED / "deformation-benchmark" / "bar"
