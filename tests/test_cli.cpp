@@ -87,6 +87,51 @@ TEST_F(Cli, UsageErrorsExitWithTwo) {
   EXPECT_EQ(run(dir, "edit --shape cactus --refine auto --refine-settle 2 --out " + path("x.obj")).exit_code, 2);
 }
 
+// Where it solves: said in the report, chosen on the command line or by the session, and the
+// session's replay writes what the same options write.
+TEST_F(Cli, MultiresolutionOnTheCommandLineAndInASession) {
+  const auto multi = run(dir, "edit --shape cactus --multiresolution --base-vertices 600 --refine 3 --out " + path("multi.obj"));
+  ASSERT_EQ(multi.exit_code, 0) << multi.err;
+  const auto report = nlohmann::json::parse(multi.out);
+  EXPECT_EQ(report["resolution"], "multiresolution");
+  EXPECT_LE(report["solved_vertices"].get<Eigen::Index>(), 630);
+  const auto exact = run(dir, "edit --shape cactus --quiet --out " + path("exact.obj"));
+  ASSERT_EQ(exact.exit_code, 0) << exact.err;
+  EXPECT_EQ(nlohmann::json::parse(exact.out)["resolution"], "exact");  // a small mesh, by default
+
+  const auto cactus = make_shape(ShapeKind::Cactus, kDefaultShapeResolution);
+  nlohmann::json session = {{"format", "hdeform-session"}, {"version", 1}, {"mesh", "shape:cactus"}, {"resolution", "multiresolution"},
+                            {"base_vertices", 600}};
+  nlohmann::json handle = {{"vertices", cactus.demo_constraints.handles[0]}};
+  const auto& t = cactus.demo_transform;
+  handle["transform"] = {{"pose", {{"axis", {t.axis.x(), t.axis.y(), t.axis.z()}}, {"pivot", {t.pivot.x(), t.pivot.y(), t.pivot.z()}},
+                                   {"angle", t.angle}, {"scale", t.scale}, {"shift", {t.shift.x(), t.shift.y(), t.shift.z()}}}}};
+  if (t.kind == HandleTransform::Kind::Affine) {
+    std::vector<double> matrix;
+    for (int r = 0; r < 3; ++r) {
+      for (int c = 0; c < 3; ++c) matrix.push_back(t.linear(r, c));
+      matrix.push_back(t.translation(r));
+    }
+    handle["transform"] = {{"matrix", matrix}};
+  }
+  session["current"] = {{"fixed", cactus.demo_constraints.fixed}, {"handles", nlohmann::json::array({handle})}, {"refine", false}};
+  dir.write("multi.json", session.dump(1));
+  const auto replay = run(dir, "edit --session " + path("multi.json") + " --quiet --out " + path("replay.obj"));
+  ASSERT_EQ(replay.exit_code, 0) << replay.err;
+  EXPECT_EQ(nlohmann::json::parse(replay.out)["resolution"], "multiresolution");
+  const auto plain = run(dir, "edit --shape cactus --multiresolution --base-vertices 600 --quiet --out " + path("plain.obj"));
+  ASSERT_EQ(plain.exit_code, 0) << plain.err;
+  EXPECT_EQ(read_obj(path("replay.obj")).positions, read_obj(path("plain.obj")).positions);
+
+  const auto both = run(dir, "edit --shape cactus --exact --multiresolution --out " + path("x.obj"));
+  EXPECT_EQ(both.exit_code, 2);
+  EXPECT_TRUE(contains(both.err, "contradict")) << both.err;
+  const auto overridden = run(dir, "edit --session " + path("multi.json") + " --exact --out " + path("x.obj"));
+  EXPECT_EQ(overridden.exit_code, 2);
+  EXPECT_TRUE(contains(overridden.err, "says where it solves")) << overridden.err;
+  EXPECT_FALSE(std::filesystem::exists(path("x.obj")));
+}
+
 TEST_F(Cli, BadDataExitsWithOneNamesTheFileAndWritesNothing) {
   dir.write("h.txt", "0 1 2\n");
   dir.write("f.txt", "100 101\n");

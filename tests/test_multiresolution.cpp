@@ -3,6 +3,7 @@
 // with the exact solve where it must (a base that is the mesh itself, fixed and handle vertices)
 // and stays close where it approximates (a mesh with relief).
 #include <gtest/gtest.h>
+#include <tbb/global_control.h>
 
 #include <Eigen/Geometry>
 #include <cmath>
@@ -142,6 +143,22 @@ TEST(BaseMesh, SimplifiedAsFarAsItGoesATorusKeepsItsHole) {
     EXPECT_TRUE(mesh_topology(base.mesh).same_as(mesh_topology(mesh))) << mesh_topology(base.mesh).describe();
     EXPECT_LT(base.mesh.vertex_count(), mesh.vertex_count() / 4) << "it went far";
   }
+}
+
+TEST(BaseMesh, TheSameBaseWhateverTheThreads) {
+  // Large enough (68,000 vertices) for the collapses to run in slabs side by side.
+  const Mesh mesh = torus(400, 170);
+  const auto target = mesh.vertex_count() / 10;
+  BaseMesh one;
+  {
+    const tbb::global_control single(tbb::global_control::max_allowed_parallelism, 1);
+    one = simplify_to_base(mesh, target);
+  }
+  const BaseMesh all = simplify_to_base(mesh, target);
+  EXPECT_EQ(all.fine_vertex, one.fine_vertex);
+  EXPECT_EQ(all.mesh.triangles, one.mesh.triangles);
+  EXPECT_TRUE(mesh_topology(all.mesh).same_as(mesh_topology(mesh)));
+  EXPECT_LE(all.mesh.vertex_count(), target + target / 20);
 }
 
 TEST(BaseMesh, AsLargeAsTheMeshIsTheMeshItself) {

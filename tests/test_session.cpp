@@ -209,5 +209,40 @@ TEST(Session, MalformedSessionsNameTheLineAndTheProblem) {
   expect_session_error(dir, head + " \"current\": {\n  \"refine\": true,\n  \"refine_settle\": -1\n }\n}\n", 7, "below 1");
 }
 
+// A session says where it was solved; its replay solves there, whatever the size, and a file
+// from before multiresolution (no "resolution") replays exactly.
+TEST(Session, ReplaySolvesWhereTheSessionSays) {
+  const test::TempDir dir;
+  Session session = demo_session();
+  const Mesh base = cli::load_session_mesh(session);
+  session.resolution = Resolution::Multiresolution;
+  session.base_vertices = base.vertex_count() / 4;
+  cli::write_session(dir.file("multi.json"), session);
+  const Session back = cli::read_session(dir.file("multi.json"));
+  EXPECT_EQ(back, session);
+  Session other = back;
+  other.base_vertices += 1;
+  EXPECT_FALSE(other == session);  // the base's size is part of it
+
+  DeformerOptions options;
+  options.resolution = Resolution::Multiresolution;
+  options.base_vertices = session.base_vertices;
+  Deformer deformer(base, session.current.constraints(), options);
+  ASSERT_LT(deformer.solved_mesh().vertex_count(), base.vertex_count());
+  Eigen::MatrixXd expected;
+  deformer.deform(session.current.transforms(), expected);
+  DeformerOptions exact;
+  exact.resolution = Resolution::Exact;  // the session's resolution replaces what the caller asks
+  EXPECT_EQ(cli::replay_session(back, base, exact), expected);
+
+  nlohmann::json old = cli::to_json(demo_session());
+  old.erase("resolution");
+  dir.write("old.json", old.dump(1));
+  EXPECT_EQ(cli::read_session(dir.file("old.json")).resolution, Resolution::Exact);
+  const std::string head = "{\n \"format\": \"hdeform-session\",\n \"version\": 1,\n \"mesh\": \"shape:cactus\",\n \"current\": {},\n";
+  expect_session_error(dir, head + " \"resolution\": \"coarse\"\n}\n", 6, "expected \"exact\", \"multiresolution\" or \"automatic\"");
+  expect_session_error(dir, head + " \"resolution\": \"multiresolution\",\n \"base_vertices\": 2\n}\n", 7, "at least 4");
+}
+
 }  // namespace
 }  // namespace hdeform

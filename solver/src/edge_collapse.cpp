@@ -66,27 +66,29 @@ class Collapser {
     removed_.assign(n, 0);
     locked_.assign(n, 0);
     referenced_.assign(n, 0);
-    for (std::size_t t = 0; t < triangles_.size(); ++t) {
+    // Each triangle's plane (side by side), then summed into its corners' quadrics in order.
+    std::vector<Quadric> planes(triangles_.size());
+    tbb::parallel_for(std::size_t{0}, triangles_.size(), [&](std::size_t t) {
       auto& corners = triangles_[t];
-      for (int k = 0; k < 3; ++k) {
-        corners[static_cast<std::size_t>(k)] = mesh.triangles(static_cast<Eigen::Index>(t), k);
-        around_[static_cast<std::size_t>(corners[static_cast<std::size_t>(k)])].push_back(static_cast<int>(t));
-        referenced_[static_cast<std::size_t>(corners[static_cast<std::size_t>(k)])] = 1;
-      }
+      for (int k = 0; k < 3; ++k) corners[static_cast<std::size_t>(k)] = mesh.triangles(static_cast<Eigen::Index>(t), k);
       const Eigen::Vector3d a = point(corners[0]), b = point(corners[1]), c = point(corners[2]);
       const Eigen::Vector3d cross = (b - a).cross(c - a);
       const double area = 0.5 * cross.norm();
       if (area > 0) {
         const Eigen::Vector3d normal = cross.normalized();
-        const Quadric plane = Quadric::plane(normal, -normal.dot(a), area);
-        for (const int v : corners) quadric_[static_cast<std::size_t>(v)] += plane;
+        planes[t] = Quadric::plane(normal, -normal.dot(a), area);
+      }
+    });
+    for (std::size_t t = 0; t < triangles_.size(); ++t) {
+      for (const int v : triangles_[t]) {
+        around_[static_cast<std::size_t>(v)].push_back(static_cast<int>(t));
+        referenced_[static_cast<std::size_t>(v)] = 1;
+        quadric_[static_cast<std::size_t>(v)] += planes[t];
       }
     }
     alive_triangles_ = triangles_.size();
-    for (std::size_t v = 0; v < n; ++v) {
-      if (referenced_[v]) ++alive_vertices_;
-      locked_[v] = !one_closed_fan(static_cast<int>(v));
-    }
+    alive_vertices_ = std::count(referenced_.begin(), referenced_.end(), 1);
+    tbb::parallel_for(std::size_t{0}, n, [&](std::size_t v) { locked_[v] = !one_closed_fan(static_cast<int>(v)); });
   }
 
   Eigen::Index alive_vertices() const { return alive_vertices_; }
@@ -97,59 +99,49 @@ class Collapser {
   // a refused one gives way to its vertex's cheapest allowed collapse when that is as cheap.
   void run(Eigen::Index target) {
     std::vector<Candidate> candidates;
-    std::vector<char> stale(around_.size(), 0);
+    stale_.assign(around_.size(), 0);
+    dirty_.assign(around_.size(), 1);
     best_.assign(around_.size(), Candidate{-1.0, -1, -1, 0.0});
-    std::vector<char> dirty(around_.size(), 1);
     while (alive_vertices_ > target) {
-      cost_candidates(dirty);
-      std::fill(dirty.begin(), dirty.end(), 0);
+      cost_candidates();
+      std::fill(dirty_.begin(), dirty_.end(), 0);
       candidates.clear();
       for (std::size_t u = 0; u < best_.size(); ++u) {
         if (best_[u].from >= 0 && !removed_[u]) candidates.push_back(best_[u]);
       }
       if (candidates.empty()) break;
+      // The goal's cheapest candidates: at most that many collapses, each one candidate's.
       const Eigen::Index goal = std::min(alive_vertices_ - target, std::max<Eigen::Index>(1, alive_vertices_ / 2));
-      // The goal's cheapest candidates, taken in vertex order: that order is spatial
-      // (collapse_edges), so each collapse finds its neighbourhood in cache, where the order of
-      // cost would jump across the mesh (several times slower on a scan).
-      const auto cut = candidates.begin() + std::min<std::ptrdiff_t>(goal, static_cast<std::ptrdiff_t>(candidates.size()) - 1);
+      const auto cut = candidates.begin() + std::min<std::ptrdiff_t>(goal - 1, static_cast<std::ptrdiff_t>(candidates.size()) - 1);
       std::nth_element(candidates.begin(), cut, candidates.end(), [](const Candidate& a, const Candidate& b) { return b > a; });
       const Candidate threshold = *cut;
-      std::fill(stale.begin(), stale.end(), 0);
-      Eigen::Index collapsed = 0;
-      for (std::size_t vertex = 0; vertex < best_.size(); ++vertex) {
-        const Candidate candidate = best_[vertex];
-        if (collapsed == goal) break;
-        if (candidate.from < 0 || candidate > threshold) continue;
-        const auto u = static_cast<std::size_t>(candidate.from), v = static_cast<std::size_t>(candidate.to);
-        if (stale[u] || removed_[u] || removed_[v]) continue;
-        Candidate chosen = candidate;
-        if (!collapse_allowed(chosen.from, chosen.to, scratch_, other_)) {
-          // Refused (a fold, a sliver, the link condition): u's next cheapest that is allowed, if
-          // it is still among the pass's cheapest.
-          const auto next = cheapest_allowed(chosen.from, scratch_, other_);
-          best_[u] = next.value_or(Candidate{-1.0, -1, -1, 0.0});  // what the next passes see of u
-          if (!next || *next > threshold) continue;
-          chosen = *next;
-        }
-        const int survivor = chosen.to;
-        collapse(chosen.from, survivor);
-        // survivor's quadric changed: its own collapse and those onto it (or onto u) cost
-        // something else now; they wait for the next pass, costed again. Every other candidate
-        // keeps its cost, and is checked when it is taken.
-        stale[static_cast<std::size_t>(survivor)] = dirty[static_cast<std::size_t>(survivor)] = 1;
-        neighbours(survivor, ring_);
-        for (const int w : ring_) {
-          const auto target_of_w = best_[static_cast<std::size_t>(w)].to;
-          // (−1: nothing was allowed; a changed neighbourhood may allow something now.)
-          if (target_of_w == survivor || target_of_w == chosen.from || target_of_w < 0) {
-            stale[static_cast<std::size_t>(w)] = dirty[static_cast<std::size_t>(w)] = 1;
-          }
-        }
-        largest_error_ = std::max(largest_error_, chosen.squared_distance);
-        ++collapsed;
+      std::fill(stale_.begin(), stale_.end(), 0);
+      // They are taken in vertex order, which is spatial (collapse_edges): each collapse finds
+      // its neighbourhood in cache, where the order of cost would jump across the mesh. A large
+      // mesh is cut into slabs of consecutive vertices, collapsed side by side; a collapse whose
+      // neighbourhood leaves its slab waits for the pass over the whole mesh after them.
+      // No two slabs touch the same vertex, so the result does not depend on the threads.
+      const auto n = static_cast<std::size_t>(around_.size());
+      const bool side_by_side = n >= kSlabs * kSmallestSlab;
+      Outcome outcome;
+      if (side_by_side) {
+        const std::size_t width = (n + kSlabs - 1) / kSlabs;
+        std::vector<std::size_t> cuts{0};
+        for (std::size_t at = width; at < n; at += width) cuts.push_back(at);
+        cuts.push_back(n);
+        std::vector<Outcome> outcomes(cuts.size() - 1);
+        tbb::parallel_for(std::size_t{0}, outcomes.size(), [&](std::size_t slab) {
+          outcomes[slab] = collapse_range(static_cast<int>(cuts[slab]), static_cast<int>(cuts[slab + 1]), threshold);
+        });
+        for (const auto& part : outcomes) outcome.add(part);
       }
-      if (collapsed == 0) break;
+      // What the slabs left: the collapses across their borders (a Morton order puts some
+      // neighbours far apart), on this thread.
+      outcome.add(collapse_range(0, static_cast<int>(n), threshold));
+      alive_vertices_ -= outcome.collapsed;
+      alive_triangles_ -= 2 * static_cast<std::size_t>(outcome.collapsed);
+      largest_error_ = std::max(largest_error_, outcome.largest_error);
+      if (outcome.collapsed == 0) break;
     }
   }
 
@@ -180,6 +172,67 @@ class Collapser {
       return std::tie(cost, from, to) > std::tie(other.cost, other.from, other.to);
     }
   };
+
+  // Slabs of a large mesh's vertices, collapsed side by side; at fewer vertices per slab than
+  // kSmallestSlab the border vertices would be most of them, and one thread goes through all.
+  static constexpr std::size_t kSlabs = 16;
+  static constexpr std::size_t kSmallestSlab = 4096;
+
+  struct Outcome {
+    Eigen::Index collapsed = 0;
+    double largest_error = 0.0;
+    void add(const Outcome& other) {
+      collapsed += other.collapsed;
+      largest_error = std::max(largest_error, other.largest_error);
+    }
+  };
+
+  // One pass's collapses with `from` in [begin, end) and everything they touch (both ends and
+  // their neighbours) inside it too: the range's vertices are all this call reads or writes of
+  // the mesh, so ranges that do not overlap run side by side.
+  Outcome collapse_range(int begin, int end, const Candidate& threshold) {
+    Outcome outcome;
+    std::vector<int> ring_u, ring_v;
+    auto inside = [&](int w) { return w >= begin && w < end; };
+    auto neighbourhood_inside = [&](int u, int v) {
+      neighbours(u, ring_u);
+      if (!std::all_of(ring_u.begin(), ring_u.end(), inside)) return false;
+      neighbours(v, ring_v);
+      return std::all_of(ring_v.begin(), ring_v.end(), inside);
+    };
+    for (int vertex = begin; vertex < end; ++vertex) {
+      const Candidate candidate = best_[static_cast<std::size_t>(vertex)];
+      if (candidate.from < 0 || candidate > threshold) continue;
+      const auto u = static_cast<std::size_t>(candidate.from), v = static_cast<std::size_t>(candidate.to);
+      if (!inside(candidate.to) || stale_[u] || removed_[u] || removed_[v] || !neighbourhood_inside(candidate.from, candidate.to)) continue;
+      Candidate chosen = candidate;
+      if (!collapse_allowed(chosen.from, chosen.to, ring_u, ring_v, true)) {
+        // Refused (a fold, a sliver, the link condition): u's next cheapest that is allowed, if
+        // it is still among the pass's cheapest.
+        const auto next = cheapest_allowed(chosen.from, ring_u, ring_v);
+        best_[u] = next.value_or(Candidate{-1.0, -1, -1, 0.0});  // what the next passes see of u
+        if (!next || *next > threshold || !inside(next->to) || !neighbourhood_inside(next->from, next->to)) continue;
+        chosen = *next;
+      }
+      const int survivor = chosen.to;
+      collapse(chosen.from, survivor);
+      // survivor's quadric changed: its own collapse and those onto it (or onto u) cost something
+      // else now; they wait for the next pass, costed again. Every other candidate keeps its
+      // cost, and is checked when it is taken.
+      stale_[static_cast<std::size_t>(survivor)] = dirty_[static_cast<std::size_t>(survivor)] = 1;
+      neighbours(survivor, ring_v);
+      for (const int w : ring_v) {
+        const auto target_of_w = best_[static_cast<std::size_t>(w)].to;
+        // (−1: nothing was allowed; a changed neighbourhood may allow something now.)
+        if (target_of_w == survivor || target_of_w == chosen.from || target_of_w < 0) {
+          stale_[static_cast<std::size_t>(w)] = dirty_[static_cast<std::size_t>(w)] = 1;
+        }
+      }
+      outcome.largest_error = std::max(outcome.largest_error, chosen.squared_distance);
+      ++outcome.collapsed;
+    }
+    return outcome;
+  }
 
   const Eigen::Vector3d& point(int v) const { return positions_[static_cast<std::size_t>(v)]; }
 
@@ -234,11 +287,11 @@ class Collapser {
 
   // The cheapest collapse of every unlocked vertex marked dirty, along one of its edges (whether
   // it is allowed is asked when it is taken).
-  void cost_candidates(const std::vector<char>& dirty) {
+  void cost_candidates() {
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, around_.size(), 4096), [&](const auto& range) {
       std::vector<int> ring;
       for (std::size_t u = range.begin(); u != range.end(); ++u) {
-        if (!dirty[u] || removed_[u] || locked_[u] || !referenced_[u]) continue;
+        if (!dirty_[u] || removed_[u] || locked_[u] || !referenced_[u]) continue;
         best_[u] = Candidate{-1.0, -1, -1, 0.0};
         neighbours(static_cast<int>(u), ring);
         for (const int v : ring) {
@@ -262,7 +315,8 @@ class Collapser {
   }
 
   // ring_u, ring_v: scratch space (collapse_allowed runs on several threads while candidates are costed).
-  bool collapse_allowed(int u, int v, std::vector<int>& ring_u, std::vector<int>& ring_v) const {
+  // `rings_ready`: ring_u and ring_v already hold u's and v's neighbours.
+  bool collapse_allowed(int u, int v, std::vector<int>& ring_u, std::vector<int>& ring_v, bool rings_ready = false) const {
     if (locked_[static_cast<std::size_t>(u)]) return false;
     // The triangles on the edge, and their far corners.
     std::array<int, 2> opposite{-1, -1};
@@ -278,8 +332,10 @@ class Collapser {
     }
     if (on_edge != 2) return false;
     // Link condition.
-    neighbours(u, ring_u);
-    neighbours(v, ring_v);
+    if (!rings_ready) {
+      neighbours(u, ring_u);
+      neighbours(v, ring_v);
+    }
     std::size_t shared = 0;
     for (const int w : ring_u) {
       if (std::find(ring_v.begin(), ring_v.end(), w) == ring_v.end()) continue;
@@ -287,9 +343,10 @@ class Collapser {
       ++shared;
     }
     if (shared != 2) return false;
+    // An opposite vertex loses a neighbour: it keeps three at least (an interior vertex has as
+    // many neighbours as triangles; one on the boundary one more, so this errs on the safe side).
     for (const int w : opposite) {
-      neighbours(w, ring_v);
-      if (ring_v.size() <= 3) return false;
+      if (around_[static_cast<std::size_t>(w)].size() <= 3) return false;
     }
     // No fold: the triangles that stay, with u moved onto v.
     const Eigen::Vector3d target = point(v);
@@ -321,7 +378,6 @@ class Collapser {
           list.erase(std::find(list.begin(), list.end(), t));
         }
         c = {-1, -1, -1};
-        --alive_triangles_;
       } else {
         for (int& w : c) {
           if (w == u) w = v;
@@ -331,7 +387,6 @@ class Collapser {
     }
     from.clear();
     removed_[static_cast<std::size_t>(u)] = 1;
-    --alive_vertices_;
     quadric_[static_cast<std::size_t>(v)] += quadric_[static_cast<std::size_t>(u)];
   }
 
@@ -340,7 +395,7 @@ class Collapser {
   std::vector<std::vector<int>> around_;       // live triangles per vertex
   std::vector<Quadric> quadric_;
   std::vector<char> removed_, locked_, referenced_;
-  std::vector<int> scratch_, other_, ring_;
+  std::vector<char> stale_, dirty_;  // per pass: cost changed in it; to be costed again
   std::vector<Candidate> best_;  // per vertex: its cheapest collapse (from −1: none)
   Eigen::Index alive_vertices_ = 0;
   std::size_t alive_triangles_ = 0;

@@ -8,7 +8,6 @@
 #include <functional>
 #include <limits>
 #include <numeric>
-#include <queue>
 #include <span>
 #include <utility>
 
@@ -20,7 +19,7 @@
 namespace hdeform {
 namespace {
 
-constexpr std::size_t kRowGrain = 2048;
+constexpr std::size_t kVertexGrain = 2048;
 
 std::uint64_t edge_key(int a, int b) {
   if (a > b) std::swap(a, b);
@@ -97,36 +96,28 @@ Incidence incidence(const Eigen::MatrixXi& triangles, Eigen::Index vertex_count)
   return result;
 }
 
-// For every fine vertex the base vertex nearest along the fine mesh's edges (Dijkstra from every
-// base vertex at once, ties to the lower base index); −1 where none is reachable.
+// For every fine vertex the base vertex fewest fine edges away (a breadth-first search from
+// every base vertex at once, in index order, so ties go the same way every time); −1 where none
+// is reachable. Along the surface, so a thin part never takes the other side's base vertex.
 std::vector<int> nearest_base_along_surface(const Mesh& fine, const std::vector<int>& base_of_fine, const Incidence& fine_incidence) {
   const auto n = static_cast<std::size_t>(fine.vertex_count());
-  std::vector<double> distance(n, std::numeric_limits<double>::infinity());
   std::vector<int> nearest(n, -1);
-  using Entry = std::pair<double, int>;
-  std::priority_queue<Entry, std::vector<Entry>, std::greater<>> queue;
+  std::vector<int> queue;
+  queue.reserve(n);
   for (std::size_t v = 0; v < n; ++v) {
     if (base_of_fine[v] >= 0) {
-      distance[v] = 0;
       nearest[v] = base_of_fine[v];
-      queue.emplace(0.0, static_cast<int>(v));
+      queue.push_back(static_cast<int>(v));
     }
   }
-  while (!queue.empty()) {
-    const auto [d, v] = queue.top();
-    queue.pop();
-    if (d > distance[static_cast<std::size_t>(v)]) continue;
+  for (std::size_t head = 0; head < queue.size(); ++head) {
+    const int v = queue[head];
     for (const int t : fine_incidence.of(v)) {
       for (int k = 0; k < 3; ++k) {
         const int w = fine.triangles(t, k);
-        if (w == v) continue;
-        const double through = d + (fine.positions.row(w) - fine.positions.row(v)).norm();
-        auto& known = distance[static_cast<std::size_t>(w)];
-        if (through < known || (through == known && nearest[static_cast<std::size_t>(v)] < nearest[static_cast<std::size_t>(w)])) {
-          known = through;
-          nearest[static_cast<std::size_t>(w)] = nearest[static_cast<std::size_t>(v)];
-          queue.emplace(through, w);
-        }
+        if (nearest[static_cast<std::size_t>(w)] >= 0) continue;
+        nearest[static_cast<std::size_t>(w)] = nearest[static_cast<std::size_t>(v)];
+        queue.push_back(w);
       }
     }
   }
@@ -234,7 +225,7 @@ DetailEncoding::DetailEncoding(const Mesh& fine, const BaseMesh& base)
   rest_reconstruction_ = fine.positions;
   const auto& base_positions = base.mesh.positions;
   auto corner = [&](int t, int k) -> Eigen::Vector3d { return base_positions.row(base_triangles_(t, k)).transpose(); };
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, kRowGrain), [&](const auto& range) {
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, kVertexGrain), [&](const auto& range) {
     std::vector<int> candidates;
     for (std::size_t v = range.begin(); v != range.end(); ++v) {
       const int vertex = static_cast<int>(v);
@@ -251,15 +242,6 @@ DetailEncoding::DetailEncoding(const Mesh& fine, const BaseMesh& base)
         continue;
       }
       if (nearest[v] < 0) continue;
-      // Candidates: the base triangles around the nearest base vertex and around its neighbours.
-      candidates.clear();
-      for (const int t : base_incidence.of(nearest[v])) {
-        for (int k = 0; k < 3; ++k) {
-          for (const int u : base_incidence.of(base_triangles_(t, k))) candidates.push_back(u);
-        }
-      }
-      std::sort(candidates.begin(), candidates.end());
-      candidates.erase(std::unique(candidates.begin(), candidates.end()), candidates.end());
       Eigen::Vector3d normal = Eigen::Vector3d::Zero();
       for (const int t : fine_incidence.of(vertex)) {
         const Eigen::Vector3d a = fine.positions.row(fine.triangles(t, 0));
@@ -271,18 +253,37 @@ DetailEncoding::DetailEncoding(const Mesh& fine, const BaseMesh& base)
       bool best_faces = false;
       double best_distance = std::numeric_limits<double>::infinity();
       Eigen::Vector2d best_weights = Eigen::Vector2d::Zero();
-      for (const int t : candidates) {
-        const Eigen::Vector3d a = corner(t, 0), b = corner(t, 1), c = corner(t, 2);
-        const Eigen::Vector3d area = (b - a).cross(c - a);
-        if (!(area.squaredNorm() > 0.0)) continue;  // degenerate: no frame
-        const Eigen::Vector2d w = closest_point_weights(p, a, b, c);
-        const double distance = (a + w[0] * (b - a) + w[1] * (c - a) - p).squaredNorm();
-        const bool faces = area.dot(normal) > 0.0;
-        if ((faces && !best_faces) || (faces == best_faces && distance < best_distance)) {
-          best = t;
-          best_faces = faces;
-          best_distance = distance;
-          best_weights = w;
+      auto search = [&](std::span<const int> triangles) {
+        for (const int t : triangles) {
+          const Eigen::Vector3d a = corner(t, 0), b = corner(t, 1), c = corner(t, 2);
+          const Eigen::Vector3d area = (b - a).cross(c - a);
+          if (!(area.squaredNorm() > 0.0)) continue;  // degenerate: no frame
+          const Eigen::Vector2d w = closest_point_weights(p, a, b, c);
+          const double distance = (a + w[0] * (b - a) + w[1] * (c - a) - p).squaredNorm();
+          const bool faces = area.dot(normal) > 0.0;
+          if ((faces && !best_faces) || (faces == best_faces && distance < best_distance)) {
+            best = t;
+            best_faces = faces;
+            best_distance = distance;
+            best_weights = w;
+          }
+        }
+      };
+      // The triangles around the nearest base vertex; when the closest point lies on the far
+      // edge of that fan, the triangles around the best one's corners too.
+      const int centre = nearest[v];
+      search(base_incidence.of(centre));
+      if (best >= 0) {
+        const int k = base_triangles_(best, 0) == centre ? 0 : base_triangles_(best, 1) == centre ? 1 : 2;
+        const double centre_weight = k == 0 ? 1.0 - best_weights[0] - best_weights[1] : best_weights[k - 1];
+        if (!(centre_weight > 0.0)) {
+          candidates.clear();
+          for (int corner_index = 0; corner_index < 3; ++corner_index) {
+            for (const int u : base_incidence.of(base_triangles_(best, corner_index))) candidates.push_back(u);
+          }
+          std::sort(candidates.begin(), candidates.end());
+          candidates.erase(std::unique(candidates.begin(), candidates.end()), candidates.end());
+          search(candidates);
         }
       }
       if (best < 0) continue;
@@ -304,7 +305,7 @@ void DetailEncoding::reconstruct(const Eigen::MatrixXd& base_positions, Eigen::M
   }
   const trace::Scope traced("fine mesh from the base", "update");
   fine_positions.resize(fine_count(), 3);
-  tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, fine_count(), kRowGrain), [&](const auto& range) {
+  tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, fine_count(), kVertexGrain), [&](const auto& range) {
     for (Eigen::Index v = range.begin(); v != range.end(); ++v) {
       const auto i = static_cast<std::size_t>(v);
       const int t = foot_triangle_[i];

@@ -52,9 +52,9 @@ BaseMesh simplify_to_base(const Mesh& fine, Eigen::Index target_vertices);
 // Each fine vertex once against the base at rest: its foot point on a base triangle (that
 // triangle and barycentric coordinates) and the detail vector from the foot to the vertex in the
 // triangle's orthonormal frame (first edge, the normal, their cross product). The foot is the
-// closest point among the base triangles near the base vertex that is nearest along the fine
-// surface (so thin parts never borrow detail from the other side), preferring triangles that
-// face the way the fine surface does.
+// closest point among the base triangles around the base vertex that is nearest along the
+// fine surface, fewest edges away (so thin parts never borrow detail from the other side),
+// preferring triangles that face the way the fine surface does.
 class DetailEncoding {
  public:
   DetailEncoding() = default;
