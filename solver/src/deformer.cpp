@@ -232,23 +232,7 @@ Deformer::Deformer(Mesh rest, EditConstraints constraints, std::shared_ptr<const
   g.coordinates = ColumnBlocks(free_rows, 3, options_.schedule);
 
   auto& t = last_update_;
-  Node& targets = g.add("targets", &t.targets_ms, [this] {
-    auto& positions = *graph_->positions;
-    const auto& transforms = graph_->transforms;
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, partition_.role.size(), kRowGrain), [&](const auto& range) {
-      for (std::size_t v = range.begin(); v != range.end(); ++v) {
-        const auto row = static_cast<Eigen::Index>(v);
-        switch (partition_.role[v]) {
-          case VertexRole::Fixed: positions.row(row) = rest_.positions.row(row); break;
-          case VertexRole::Handle:
-            positions.row(row) =
-                transforms[static_cast<std::size_t>(partition_.handle_index[v])].apply(rest_.positions.row(row).transpose()).transpose();
-            break;
-          case VertexRole::Free: break;
-        }
-      }
-    });
-  });
+  Node& targets = g.add("targets", &t.targets_ms, [this] { write_constrained(graph_->transforms, *graph_->positions); });
   tbb::flow::make_edge(g.start, targets);
 
   Node* maps_node = nullptr;

@@ -1,6 +1,7 @@
 // The Deformer with multiresolution (multiresolution.h): the paper's update and the refinement run
 // on the base's own Deformer; this one rebuilds the fine mesh from the base and puts the fine
-// mesh's constrained vertices exactly where their constraints say.
+// mesh's constrained vertices exactly where their constraints say (write_constrained, which the
+// exact update's "targets" stage runs too).
 #include <tbb/parallel_for.h>
 
 #include "hdeform/deformer.h"

@@ -91,8 +91,6 @@ class Collapser {
     tbb::parallel_for(std::size_t{0}, n, [&](std::size_t v) { locked_[v] = !one_closed_fan(static_cast<int>(v)); });
   }
 
-  Eigen::Index alive_vertices() const { return alive_vertices_; }
-
   // In passes, as meshoptimizer's simplifier does: each vertex's cheapest collapse is costed (in
   // parallel, again only where a collapse changed what it costs), and the pass takes the cheapest
   // of them, up to half the vertices, unless an earlier collapse of the pass changed their cost;

@@ -182,6 +182,7 @@ class Deformer {
 
  private:
   void set_up_on_base(const ProgressCallback& progress);
+  // Fixed vertices at rest, handle vertices moved by their handle's transform.
   void write_constrained(std::span<const HandleTransform> transforms, Eigen::MatrixXd& positions) const;
   struct UpdateArena;
   struct UpdateGraph;
