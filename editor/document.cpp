@@ -1,6 +1,7 @@
 #include "document.h"
 
 #include <algorithm>
+#include <limits>
 #include <new>
 
 #include "background_task.h"
@@ -300,6 +301,7 @@ bool Document::redo() {
 
 bool Document::modified() const { return history_index_ != saved_index_; }
 void Document::mark_saved() { saved_index_ = history_index_; }
+void Document::mark_unsaved() { saved_index_ = std::numeric_limits<std::size_t>::max(); }
 
 Document::SolverState Document::solver_state() const {
   if (build_) return SolverState::Building;

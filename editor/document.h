@@ -93,6 +93,8 @@ class Document {
   const std::string& last_history_step() const { return last_history_step_; }
   // Whether the state differs from the one last marked saved.
   bool modified() const;
+  // Until the next save, modified() whatever undo does (a state restored after a crash).
+  void mark_unsaved();
   void mark_saved();
 
   // Solver state, for the UI.

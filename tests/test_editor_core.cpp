@@ -167,6 +167,20 @@ TEST_F(DocumentTest, PaintingKeepsFixedAndHandlesExclusiveAndUndoes) {
   EXPECT_EQ(session.current.fixed.size() + fixed.size() + handle.size(), static_cast<std::size_t>(shape.mesh.vertex_count()));
 }
 
+// A state restored after a crash is in no file: it counts as unsaved, whatever undo and redo do,
+// until it is saved.
+TEST_F(DocumentTest, RestoredWorkStaysUnsavedUntilSaved) {
+  EXPECT_FALSE(document->modified());
+  document->mark_unsaved();
+  EXPECT_TRUE(document->modified());
+  document->paint(shape.demo_constraints.fixed, cli::Layer::Fixed, false);
+  document->commit();
+  ASSERT_TRUE(document->undo());
+  EXPECT_TRUE(document->modified()) << "undo back to the restored state is still unsaved";
+  document->mark_saved();
+  EXPECT_FALSE(document->modified());
+}
+
 // A value typed into the panel is applied as the user types, and committed when the field is
 // left; undo and redo before that must neither drop it nor bring back an older pose.
 TEST_F(DocumentTest, AnUncommittedChangeIsNeverLostToUndoOrRedo) {

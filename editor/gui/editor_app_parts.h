@@ -182,12 +182,13 @@ class EditorApp {
   // uniform scale; a 3×4 matrix's stretch is dropped, as the gizmo has none).
   static HandleTransform pose_for(const std::vector<int>& vertices, const Mesh& mesh, const std::optional<HandleTransform>& target);
 
+  // `recovered`: the session comes from the recovery file, work that no file holds yet.
   template <class Load>
-  void start_load(const std::string& what, Load load) {
+  void start_load(const std::string& what, Load load, bool recovered = false) {
     DeformerOptions document_options;
     document_options.resolution = options_.resolution;
     document_options.base_vertices = options_.base_vertices;
-    load_.start("Loading " + what, [load, document_options] {
+    load_.start("Loading " + what, [load, document_options, recovered] {
       auto files = load();  // (session, mesh) or (session, mesh, a problem with the lists given beside the mesh)
       Loaded loaded;
       loaded.session = std::move(std::get<0>(files));
@@ -196,6 +197,8 @@ class EditorApp {
       // Replaying applied stages and the checks run here, off the frame loop; the publisher is
       // attached when the document is installed.
       loaded.document = std::make_unique<Document>(loaded.session, loaded.mesh, document_options, Document::Publish{});
+      // Restored work is unsaved: Open, a drop and Quit ask before they discard it.
+      if (recovered) loaded.document->mark_unsaved();
       return loaded;
     }, [] { glfwPostEmptyEvent(); });
   }

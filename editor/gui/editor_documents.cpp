@@ -123,7 +123,7 @@ void EditorApp::restore_recovery() {
     SessionSource source;
     Session session = read_session(path, &source);
     return std::pair{session, load_session_mesh(session, &source)};
-  });
+  }, true);
 }
 
 void EditorApp::start_requested_document() {
