@@ -4,8 +4,8 @@
 #include <iostream>
 #include <new>
 
-#include "batch_commands.h"
-#include "cli_support.h"
+#include "commands/batch_commands.h"
+#include "commands/cli_support.h"
 #include "hdeform/errors.h"
 #ifdef HDEFORM_WITH_ENGINE
 #include "hdeform/engine/vulkan_context.h"

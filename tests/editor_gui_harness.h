@@ -29,8 +29,8 @@
 #include "hdeform/mesh_io.h"
 #include "hdeform/shapes.h"
 #include "render_support.h"
-#include "session.h"
-#include "transfer_state.h"
+#include "model/session.h"
+#include "model/transfer_state.h"
 #include "test_support.h"
 #include "trace_checks.h"
 

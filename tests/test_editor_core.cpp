@@ -6,21 +6,21 @@
 #include <random>
 #include <thread>
 
-#include "document.h"
+#include "model/document.h"
 #include "gui/frame_statistics.h"
 #include "gui/recent_files.h"
 #include "gui/recovery.h"
 #include "gui/synthetic_drag.h"
 #include "gui/restore_prompt.h"
-#include "transfer_state.h"
+#include "model/transfer_state.h"
 #include "hdeform/engine/geometry_exchange.h"
 #include "hdeform/errors.h"
 #include "hdeform/mesh_io.h"
 #include "hdeform/shapes.h"
 #include "hdeform/engine/camera.h"
-#include "marker_editor.h"
-#include "mesh_picker.h"
-#include "selection.h"
+#include "model/marker_editor.h"
+#include "model/mesh_picker.h"
+#include "model/selection.h"
 #include "test_support.h"
 
 namespace hdeform {

@@ -4,9 +4,9 @@
 #include <mutex>
 #include <thread>
 
-#include "document.h"
+#include "model/document.h"
 #include "hdeform/shapes.h"
-#include "session.h"
+#include "model/session.h"
 #include "test_support.h"
 
 namespace hdeform {

@@ -13,7 +13,7 @@
 #include "hdeform/shapes.h"
 #include "hdeform/sparse_cholesky.h"
 #include "test_support.h"
-#include "tree_factorization.h"
+#include "linear_algebra/tree_factorization.h"
 
 namespace hdeform {
 namespace {

@@ -13,7 +13,7 @@
 #include "hdeform/laplacian.h"
 #include "hdeform/mesh_io.h"
 #include "hdeform/shapes.h"
-#include "obj_pieces.h"
+#include "io/obj_pieces.h"
 #include "test_support.h"
 
 namespace hdeform {

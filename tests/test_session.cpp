@@ -5,8 +5,8 @@
 #include "hdeform/deformer.h"
 #include "hdeform/errors.h"
 #include "hdeform/shapes.h"
-#include "cli_support.h"
-#include "session.h"
+#include "commands/cli_support.h"
+#include "model/session.h"
 #include "test_support.h"
 
 namespace hdeform {

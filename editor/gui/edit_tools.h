@@ -6,7 +6,7 @@
 #include <optional>
 #include <string>
 
-#include "document.h"
+#include "model/document.h"
 
 namespace hdeform::cli {
 

@@ -27,9 +27,9 @@
 #include <sstream>
 #include <thread>
 #include <tuple>
-#include "cli_support.h"
-#include "document.h"
-#include "background_task.h"
+#include "commands/cli_support.h"
+#include "model/document.h"
+#include "model/background_task.h"
 #include "gui/edit_tools.h"
 #include "gui/frame_statistics.h"
 #include "gui/handle_drag.h"
@@ -44,7 +44,7 @@
 #include "gui/synthetic_drag.h"
 #include "gui/view_navigation.h"
 #include "gui/view_picking.h"
-#include "transfer_state.h"
+#include "model/transfer_state.h"
 #include "gui/transfer_view.h"
 #include "gui/widgets.h"
 #include "hdeform/atomic_file.h"
@@ -59,9 +59,9 @@
 #include "hdeform/mesh_io.h"
 #include "hdeform/shapes.h"
 #include "hdeform/trace.h"
-#include "mesh_picker.h"
-#include "render_support.h"
-#include "selection.h"
+#include "model/mesh_picker.h"
+#include "commands/render_support.h"
+#include "model/selection.h"
 #include "hdeform/stopwatch.h"
 
 namespace hdeform::cli::gui {

@@ -11,7 +11,7 @@
 #include <string>
 #include <thread>
 
-#include "session.h"
+#include "model/session.h"
 
 namespace hdeform::cli {
 

@@ -6,9 +6,9 @@
 
 #include "gui/recovery.h"
 #include "hdeform/errors.h"
-#include "cli_support.h"
-#include "session.h"
-#include "transfer_state.h"
+#include "commands/cli_support.h"
+#include "model/session.h"
+#include "model/transfer_state.h"
 
 namespace hdeform::cli {
 namespace {

@@ -6,7 +6,7 @@
 #include <algorithm>
 #include <filesystem>
 
-#include "cli_support.h"
+#include "commands/cli_support.h"
 #include "gui/transfer_view_parts.h"
 #include "gui/widgets.h"
 

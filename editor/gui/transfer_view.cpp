@@ -14,13 +14,13 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "cli_support.h"
+#include "commands/cli_support.h"
 #include "gui/widgets.h"
 #include "hdeform/engine/geometry_exchange.h"
 #include "hdeform/engine/mesh_renderer.h"
 #include "hdeform/errors.h"
 #include "hdeform/mesh_io.h"
-#include "mesh_picker.h"
+#include "model/mesh_picker.h"
 #include "hdeform/stopwatch.h"
 
 namespace hdeform::cli {

@@ -20,9 +20,9 @@
 #include "hdeform/engine/vulkan_context.h"
 #include "hdeform/mesh.h"
 #include "hdeform/transfer.h"
-#include "background_task.h"
-#include "marker_editor.h"
-#include "transfer_state.h"
+#include "model/background_task.h"
+#include "model/marker_editor.h"
+#include "model/transfer_state.h"
 #include "gui/widgets.h"
 
 struct ImVec2;

@@ -8,7 +8,7 @@
 #include "gui/transfer_view.h"
 #include "hdeform/engine/geometry_exchange.h"
 #include "hdeform/engine/mesh_renderer.h"
-#include "cli_support.h"
+#include "commands/cli_support.h"
 #include "gui/view_picking.h"
 
 namespace hdeform::cli {

@@ -6,7 +6,7 @@
 #include <memory>
 
 #include "hdeform/engine/geometry_exchange.h"
-#include "mesh_picker.h"
+#include "model/mesh_picker.h"
 
 namespace hdeform::cli {
 

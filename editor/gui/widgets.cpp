@@ -6,7 +6,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "cli_support.h"
+#include "commands/cli_support.h"
 
 namespace hdeform::cli {
 

@@ -18,7 +18,7 @@
 
 #include "fuzz_input.h"
 #include "hdeform/mesh_io.h"
-#include "obj_pieces.h"
+#include "io/obj_pieces.h"
 
 namespace {
 

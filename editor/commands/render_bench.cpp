@@ -13,8 +13,8 @@
 #include "hdeform/engine/frame_slots.h"
 #include "hdeform/engine/geometry_exchange.h"
 #include "hdeform/engine/mesh_renderer.h"
-#include "mesh_picker.h"
-#include "selection.h"
+#include "model/mesh_picker.h"
+#include "model/selection.h"
 #include "render_support.h"
 #include "hdeform/stopwatch.h"
 

@@ -10,7 +10,7 @@
 #include <span>
 #include <utility>
 
-#include "disjoint_sets.h"
+#include "mesh/disjoint_sets.h"
 #include "edge_collapse.h"
 #include "hdeform/errors.h"
 #include "hdeform/trace.h"

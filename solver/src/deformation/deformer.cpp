@@ -13,7 +13,7 @@
 #include <numbers>
 #include <stdexcept>
 
-#include "arap_refinement.h"
+#include "refinement/arap_refinement.h"
 #include "hdeform/deformation_field.h"
 #include "hdeform/errors.h"
 #include "hdeform/handle_shape.h"

@@ -8,7 +8,7 @@
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_invoke.h>
 
-#include "disjoint_sets.h"
+#include "mesh/disjoint_sets.h"
 #include "hdeform/constraints.h"
 #include "hdeform/deformation_field.h"
 #include "hdeform/deformation_gradient.h"

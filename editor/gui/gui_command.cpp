@@ -1,8 +1,8 @@
 // hdeform gui: the interactive editor.
-#include "batch_commands.h"
+#include "commands/batch_commands.h"
 
 #include <CLI/CLI.hpp>
-#include "cli_support.h"
+#include "commands/cli_support.h"
 #include "gui/editor_app.h"
 
 namespace hdeform::cli {

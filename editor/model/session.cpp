@@ -9,7 +9,7 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include "cli_support.h"
+#include "commands/cli_support.h"
 #include "hdeform/atomic_file.h"
 #include "hdeform/errors.h"
 #include "hdeform/mesh_io.h"

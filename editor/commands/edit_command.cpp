@@ -13,7 +13,7 @@
 #include "hdeform/errors.h"
 #include "hdeform/mesh_io.h"
 #include "hdeform/shape_metrics.h"
-#include "session.h"
+#include "model/session.h"
 #include "hdeform/stopwatch.h"
 #ifdef HDEFORM_WITH_ENGINE
 #include "render_support.h"
