@@ -94,6 +94,7 @@ class BenchCommand final : public BatchCommand {
     const SolverChoice solver{.threads = threads_};
     const auto threads = solver.apply_threads();
     const Progress progress(quiet_);
+    render_options_.quiet = quiet_;
     trace_.begin();
 
     auto start = Clock::now();

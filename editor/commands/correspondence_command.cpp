@@ -59,6 +59,7 @@ class CorrespondenceCommand final : public BatchCommand {
     if (!png_path_.empty()) refuse_overwriting_inputs(png_path_, arguments_.inputs());
     const auto threads = solver_.apply_threads();
     const Progress progress(quiet_);
+    picture_.quiet = quiet_;
     TransferInputs loaded = load_transfer_inputs(arguments_, progress);
     const DeformationTransfer transfer(std::move(loaded.source_rest), std::move(loaded.target), std::move(loaded.markers), options,
                                        [&](std::string_view stage) { progress(stage); });

@@ -85,6 +85,7 @@ class EditCommand final : public BatchCommand {
     trace_.begin();
     const auto threads = solver_.apply_threads();
     const Progress progress(quiet_);
+    picture_.quiet = quiet_;
     DeformerOptions options = DeformerOptions::solver(solver_.parsed_backend(), solver_.parsed_schedule());
     resolution_.apply(options);
     int refine_iterations = refine_.parsed_iterations();

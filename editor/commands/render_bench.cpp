@@ -40,6 +40,7 @@ nlohmann::json bench_rendering(const Mesh& mesh, const EditConstraints& constrai
   picture.size = options.size;
   picture.device = options.device;
   picture.validation = options.validation;
+  picture.quiet = options.quiet;
   const engine::VulkanContext context(picture.context());
   picture.samples = options.samples > 0 ? options.samples : context.interactive_samples();
   const engine::Bounds bounds = engine::Bounds::of(mesh.positions);

@@ -15,6 +15,7 @@ struct RenderBenchOptions {
   int frames = 120;
   std::string device;
   bool validation = false;
+  bool quiet = false;  // bench's --quiet: the chosen device is not announced
 };
 
 // Frame times on an offscreen target with frames in flight: the mesh standing still, and while a

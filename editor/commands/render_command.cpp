@@ -33,6 +33,7 @@ class RenderCommand final : public BatchCommand {
     source_.require();
     refuse_overwriting_inputs(out_path_, {source_.mesh_path, field_path_, fixed_path_});
     const Progress progress(quiet_);
+    picture_.quiet = quiet_;
     progress("reading " + source_.describe());
     LoadedMesh loaded = load_mesh(source_);
     const Mesh& mesh = loaded.mesh;

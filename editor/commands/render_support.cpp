@@ -96,6 +96,7 @@ engine::ContextOptions PictureOptions::context() const {
   engine::ContextOptions options;
   options.device = device;
   options.validation = validation;
+  options.announce = !quiet;
   return options;
 }
 

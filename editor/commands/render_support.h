@@ -27,6 +27,7 @@ struct PictureOptions {
   bool no_legend = false;
   std::string device;
   bool validation = false;
+  bool quiet = false;  // the command's --quiet: the chosen device is not announced either
 
   void add_options(CLI::App& command);
   engine::UpAxis up_axis() const;
