@@ -1,8 +1,9 @@
 #pragma once
-// The editing engine (paper §5, §7): everything that depends only on the mesh and the vertex
-// classes is computed once — Laplacian, factorization of L_ff, harmonic field, rest gradients —
-// and each handle transform after that costs a deformation field, a right-hand side and
-// back-substitution. This is the object the editor and the batch commands drive.
+/// @file
+/// The editing engine (paper §5, §7): everything that depends only on the mesh and the vertex
+/// classes is computed once — Laplacian, factorization of L_ff, harmonic field, rest gradients —
+/// and each handle transform after that costs a deformation field, a right-hand side and
+/// back-substitution. This is the object the editor and the batch commands drive.
 #include <Eigen/Core>
 #include <functional>
 #include <memory>
@@ -27,28 +28,28 @@ namespace detail {
 class ArapRefinement;
 }
 
-// Where the solves run: on the mesh itself, or on a base mesh that carries the fine mesh's detail
-// (multiresolution.h).
+/// Where the solves run: on the mesh itself, or on a base mesh that carries the fine mesh's detail
+/// (multiresolution.h).
 enum class Resolution {
-  Automatic,        // Multiresolution from kMultiresolutionFrom vertices on, Exact below
-  Exact,            // every vertex an unknown of the solves
-  Multiresolution,  // the solves on a base of base_vertices, the detail carried
+  Automatic,        ///< Multiresolution from kMultiresolutionFrom vertices on, Exact below
+  Exact,            ///< every vertex an unknown of the solves
+  Multiresolution,  ///< the solves on a base of base_vertices, the detail carried
 };
 std::string_view to_string(Resolution resolution);
 std::optional<Resolution> parse_resolution(std::string_view name);
-// What Automatic means for a mesh of `vertices` vertices (Exact or Multiresolution).
+/// What Automatic means for a mesh of `vertices` vertices (Exact or Multiresolution).
 Resolution resolution_for(Eigen::Index vertices, Resolution asked = Resolution::Automatic);
 
-// Called from the constructing thread before each set-up stage, with a line for the user.
+/// Called from the constructing thread before each set-up stage, with a line for the user.
 using ProgressCallback = std::function<void(std::string_view stage)>;
 
 struct DeformerOptions {
   SolverBackend backend = default_backend();
   SolveSchedule schedule = default_schedule();
   Resolution resolution = Resolution::Automatic;
-  Eigen::Index base_vertices = kDefaultBaseVertices;  // the base's size, with multiresolution
+  Eigen::Index base_vertices = kDefaultBaseVertices;  ///< the base's size, with multiresolution
   RefinementOptions refinement;
-  // Set up the as-rigid-as-possible refinement with the rest (else at the first refine()).
+  /// Set up the as-rigid-as-possible refinement with the rest (else at the first refine()).
   bool prepare_refinement = false;
 
   static DeformerOptions solver(SolverBackend backend, SolveSchedule schedule = default_schedule()) {
@@ -59,63 +60,63 @@ struct DeformerOptions {
   }
 };
 
-// Where the last update's time went, milliseconds per stage (stages of one update may overlap:
-// the constrained targets are computed while the maps are).
+/// Where the last update's time went, milliseconds per stage (stages of one update may overlap:
+/// the constrained targets are computed while the maps are).
 struct UpdateTimings {
-  double field_ms = 0.0;    // several handles: the five interpolated fields
-  double detail_ms = 0.0;   // multiresolution: the fine mesh rebuilt from the base
-  double maps_ms = 0.0;     // per-triangle maps
-  double targets_ms = 0.0;  // fixed and handle positions
-  double rhs_ms = 0.0;      // Poisson right-hand side
-  double solve_ms = 0.0;    // x, y, z back-substitution
-  double write_ms = 0.0;    // free positions out
-  double total_ms = 0.0;    // the whole update, as the caller waits for it
+  double field_ms = 0.0;    ///< several handles: the five interpolated fields
+  double detail_ms = 0.0;   ///< multiresolution: the fine mesh rebuilt from the base
+  double maps_ms = 0.0;     ///< per-triangle maps
+  double targets_ms = 0.0;  ///< fixed and handle positions
+  double rhs_ms = 0.0;      ///< Poisson right-hand side
+  double solve_ms = 0.0;    ///< x, y, z back-substitution
+  double write_ms = 0.0;    ///< free positions out
+  double total_ms = 0.0;    ///< the whole update, as the caller waits for it
 };
 
 struct DeformerTimings {  // set-up, milliseconds
-  double laplacian_ms = 0.0;  // weights, inspection, partition and Laplacian (the partition alone when reused)
-  double factor_ms = 0.0;  // analyse + numeric factorization of L_ff
-  double field_ms = 0.0;   // harmonic field solve
-  double base_ms = 0.0;    // multiresolution: the base mesh and the detail encoding (with the operators)
+  double laplacian_ms = 0.0;  ///< weights, inspection, partition and Laplacian (the partition alone when reused)
+  double factor_ms = 0.0;  ///< analyse + numeric factorization of L_ff
+  double field_ms = 0.0;   ///< harmonic field solve
+  double base_ms = 0.0;    ///< multiresolution: the base mesh and the detail encoding (with the operators)
 };
 
-// What depends on the rest mesh alone: cotangent weights, the inspection, the Laplacian and a
-// fill-reducing elimination order of its pattern (about half of a set-up). A Deformer for a new
-// selection on the same mesh takes them from the last one (Deformer::operators()) instead of
-// computing them again.
+/// What depends on the rest mesh alone: cotangent weights, the inspection, the Laplacian and a
+/// fill-reducing elimination order of its pattern (about half of a set-up). A Deformer for a new
+/// selection on the same mesh takes them from the last one (Deformer::operators()) instead of
+/// computing them again.
 struct MeshOperators {
   CotangentWeights weights;
   MeshInspection inspection;
   Eigen::SparseMatrix<double> laplacian;
-  // elimination_rank[v]: vertex v's place in an elimination order of the whole Laplacian
-  // (elimination_ranks: AMD, or nested dissection on a large mesh). Eliminating the
-  // free vertices in the order it induces fills in no more than that order fills the whole
-  // matrix (a fill path among free vertices is one in the whole mesh), so every selection's
-  // L_ff is factored without an ordering of its own.
+  /// elimination_rank[v]: vertex v's place in an elimination order of the whole Laplacian
+  /// (elimination_ranks: AMD, or nested dissection on a large mesh). Eliminating the
+  /// free vertices in the order it induces fills in no more than that order fills the whole
+  /// matrix (a fill path among free vertices is one in the whole mesh), so every selection's
+  /// L_ff is factored without an ordering of its own.
   std::vector<int> elimination_rank;
-  double ms = 0.0;  // what computing them took
+  double ms = 0.0;  ///< what computing them took
 
-  // With multiresolution, the mesh's own Laplacian and order are left empty (only the weights and
-  // the inspection are the fine mesh's): the solves run on the base, with its own operators.
+  /// With multiresolution, the mesh's own Laplacian and order are left empty (only the weights and
+  /// the inspection are the fine mesh's): the solves run on the base, with its own operators.
   struct Multiresolution {
     BaseMesh base;
     DetailEncoding encoding;
     std::shared_ptr<const MeshOperators> base_operators;
-    double ms = 0.0;  // simplification and encoding
+    double ms = 0.0;  ///< simplification and encoding
   };
   std::shared_ptr<const Multiresolution> multiresolution;
-  // Why Automatic stayed exact on a mesh of multiresolution's size (the base lost the topology).
+  /// Why Automatic stayed exact on a mesh of multiresolution's size (the base lost the topology).
   std::string exact_because;
 
   Resolution resolution() const { return multiresolution ? Resolution::Multiresolution : Resolution::Exact; }
 
-  // Runs validate_mesh. `resolution` as in DeformerOptions (Automatic: by the mesh's size).
-  // Throws SolveError when Multiresolution was asked for and no base keeps the mesh's topology.
+  /// Runs validate_mesh. `resolution` as in DeformerOptions (Automatic: by the mesh's size).
+  /// Throws SolveError when Multiresolution was asked for and no base keeps the mesh's topology.
   static std::shared_ptr<const MeshOperators> of(const Mesh& mesh, Resolution resolution = Resolution::Automatic,
                                                  Eigen::Index base_vertices = kDefaultBaseVertices, const ProgressCallback& progress = {});
 
-  // The analysis of the last L_ff factored with these operators, for the next set-up whose free
-  // vertices are the same (thread-safe).
+  /// The analysis of the last L_ff factored with these operators, for the next set-up whose free
+  /// vertices are the same (thread-safe).
   std::shared_ptr<const SparseCholesky::Analysis> last_analysis() const;
   void keep_analysis(std::shared_ptr<const SparseCholesky::Analysis> analysis) const;
 
@@ -129,10 +130,10 @@ class Deformer {
   // Throws InputError for invalid constraints (no handle, bad indices) and SolveError when the
   // factorization fails.
   Deformer(Mesh rest, EditConstraints constraints, DeformerOptions options = {}, const ProgressCallback& progress = {});
-  // The same, with the operators of this very mesh computed before (MeshOperators::of(rest), or
-  // another Deformer's operators() on it): a re-selection. Throws std::invalid_argument when their
-  // sizes do not fit the mesh. Operators of the other resolution than options.resolution asks
-  // for (Automatic takes either) are computed again.
+  /// The same, with the operators of this very mesh computed before (MeshOperators::of(rest), or
+  /// another Deformer's operators() on it): a re-selection. Throws std::invalid_argument when their
+  /// sizes do not fit the mesh. Operators of the other resolution than options.resolution asks
+  /// for (Automatic takes either) are computed again.
   Deformer(Mesh rest, EditConstraints constraints, std::shared_ptr<const MeshOperators> operators, DeformerOptions options = {},
            const ProgressCallback& progress = {});
   ~Deformer();
@@ -144,36 +145,36 @@ class Deformer {
   const VertexPartition& partition() const { return partition_; }
   const MeshInspection& inspection() const { return operators_->inspection; }
   const std::shared_ptr<const MeshOperators>& operators() const { return operators_; }
-  // Multiresolution or Exact: what this deformer solves on.
+  /// Multiresolution or Exact: what this deformer solves on.
   Resolution resolution() const { return operators_->resolution(); }
-  // The mesh the solves run on: the base with multiresolution, else rest().
+  /// The mesh the solves run on: the base with multiresolution, else rest().
   const Mesh& solved_mesh() const { return base_ ? base_->rest() : rest_; }
-  // The system of the mesh the solves run on (the base's with multiresolution).
+  /// The system of the mesh the solves run on (the base's with multiresolution).
   const DirichletSystem& system() const { return base_ ? base_->system() : *system_; }
   const DeformerOptions& options() const { return options_; }
   const DeformerTimings& timings() const { return timings_; }
-  // The harmonic field h: 1 at every handle vertex, 0 at fixed vertices.
+  /// The harmonic field h: 1 at every handle vertex, 0 at fixed vertices.
   const Eigen::VectorXd& field() const { return field_; }
   std::size_t handle_count() const { return constraints_.handles.size(); }
-  // Mesh, partition and handle-shape findings the user should see.
+  /// Mesh, partition and handle-shape findings the user should see.
   std::vector<std::string> warnings() const;
 
   const UpdateTimings& last_update() const { return last_update_; }
 
-  // Deformed positions (n×3, resized if needed) for one transform per handle: one handle blends
-  // its rotation and scale along h (§5), several interpolate q0..q3 and s harmonically (§7).
-  // Not reentrant. Allocation-free once `positions` has the right size. Begins a new edit for
-  // refine(), whose iterations start where `start` says (refinement.h): by default from the
-  // paper's result, so that the refined shape of a pose is the same bits whatever came before.
+  /// Deformed positions (n×3, resized if needed) for one transform per handle: one handle blends
+  /// its rotation and scale along h (§5), several interpolate q0..q3 and s harmonically (§7).
+  /// Not reentrant. Allocation-free once `positions` has the right size. Begins a new edit for
+  /// refine(), whose iterations start where `start` says (refinement.h): by default from the
+  /// paper's result, so that the refined shape of a pose is the same bits whatever came before.
   void deform(std::span<const HandleTransform> transforms, Eigen::MatrixXd& positions,
               RefinementStart start = RefinementStart::FromPapersResult);
 
-  // As-rigid-as-possible refinement (refinement.h) of the last deform(): runs up to
-  // `max_iterations` local/global iterations, fewer once they have converged (RefinementOptions),
-  // writing the free rows of `positions` (the buffer deform() filled) after each. Successive calls
-  // continue the same edit. Returns the iterations run. Allocation-free after the first call.
+  /// As-rigid-as-possible refinement (refinement.h) of the last deform(): runs up to
+  /// `max_iterations` local/global iterations, fewer once they have converged (RefinementOptions),
+  /// writing the free rows of `positions` (the buffer deform() filled) after each. Successive calls
+  /// continue the same edit. Returns the iterations run. Allocation-free after the first call.
   int refine(Eigen::MatrixXd& positions, int max_iterations);
-  // ... one iteration at a time, for a caller that shows each (false once converged).
+  /// ... one iteration at a time, for a caller that shows each (false once converged).
   bool refine_once(Eigen::MatrixXd& positions) { return refine(positions, 1) == 1 && !refinement_status().converged; }
   const RefinementStatus& refinement_status() const;
   const RefinementTimings& refinement_timings() const;
@@ -182,7 +183,7 @@ class Deformer {
 
  private:
   void set_up_on_base(const ProgressCallback& progress);
-  // Fixed vertices at rest, handle vertices moved by their handle's transform.
+  /// Fixed vertices at rest, handle vertices moved by their handle's transform.
   void write_constrained(std::span<const HandleTransform> transforms, Eigen::MatrixXd& positions) const;
   struct UpdateArena;
   struct UpdateGraph;
@@ -201,21 +202,21 @@ class Deformer {
   std::unique_ptr<DirichletSystem> system_;
   std::unique_ptr<class PoissonAssembler> assembler_;
   Eigen::VectorXd field_;
-  std::vector<int> update_triangles_;      // mesh triangles with a free corner, in assembly order
-  Eigen::MatrixXi update_mesh_triangles_;  // their corners
-  Eigen::VectorXd triangle_field_;         // h at their barycenters
-  // The update graph lives in an arena of its own, which whatever thread calls deform() joins as
-  // its master while the TBB workers help. Attached to the constructing thread's arena instead,
-  // the graph could only be driven by delegating to a worker, and on 2 cores that left the
-  // update's parallel stages one thread (8.0 ms instead of 4.8 ms per buddha-206k update).
+  std::vector<int> update_triangles_;      ///< mesh triangles with a free corner, in assembly order
+  Eigen::MatrixXi update_mesh_triangles_;  ///< their corners
+  Eigen::VectorXd triangle_field_;         ///< h at their barycenters
+  /// The update graph lives in an arena of its own, which whatever thread calls deform() joins as
+  /// its master while the TBB workers help. Attached to the constructing thread's arena instead,
+  /// the graph could only be driven by delegating to a worker, and on 2 cores that left the
+  /// update's parallel stages one thread (8.0 ms instead of 4.8 ms per buddha-206k update).
   std::unique_ptr<UpdateArena> update_arena_;
   std::unique_ptr<UpdateGraph> graph_;
   std::unique_ptr<detail::ArapRefinement> refinement_;
-  std::vector<HandleTransform> edited_;  // the transforms of the last deform()
-  bool refinement_pending_ = false;      // deform() ran since the refinement last began an edit
-  RefinementStart refinement_start_ = RefinementStart::FromPapersResult;  // of the last deform()
-  std::optional<HandleTransform> field_of_;  // one handle: the transform the refinement's field rotations are of
-  // Multiresolution: the deformer of the base, and its last positions.
+  std::vector<HandleTransform> edited_;  ///< the transforms of the last deform()
+  bool refinement_pending_ = false;      ///< deform() ran since the refinement last began an edit
+  RefinementStart refinement_start_ = RefinementStart::FromPapersResult;  ///< of the last deform()
+  std::optional<HandleTransform> field_of_;  ///< one handle: the transform the refinement's field rotations are of
+  /// Multiresolution: the deformer of the base, and its last positions.
   std::unique_ptr<Deformer> base_;
   Eigen::MatrixXd base_positions_;
 };

@@ -1,12 +1,13 @@
 #pragma once
-// Multiresolution editing (Kobbelt et al. 1998, "Interactive multi-resolution modeling on
-// arbitrary meshes"; Botsch & Sorkine 2008, §5): a scan of millions of triangles is deformed
-// through a base mesh of a manageable size, and its fine detail is carried along as displacements
-// in local frames of the base. The harmonic guidance field is smooth by construction, which is
-// what a base mesh represents well.
-//
-// The base's vertices are fine vertices (the simplifier only collapses edges), so every base vertex
-// sits exactly where its fine vertex does, and a fine vertex set reaches the base through them.
+/// @file
+/// Multiresolution editing (Kobbelt et al. 1998, "Interactive multi-resolution modeling on
+/// arbitrary meshes"; Botsch & Sorkine 2008, §5): a scan of millions of triangles is deformed
+/// through a base mesh of a manageable size, and its fine detail is carried along as displacements
+/// in local frames of the base. The harmonic guidance field is smooth by construction, which is
+/// what a base mesh represents well.
+///
+/// The base's vertices are fine vertices (the simplifier only collapses edges), so every base vertex
+/// sits exactly where its fine vertex does, and a fine vertex set reaches the base through them.
 #include <Eigen/Core>
 #include <array>
 #include <string>
@@ -17,44 +18,44 @@
 
 namespace hdeform {
 
-// Meshes with at least this many vertices are edited on a base mesh unless the exact solve is
-// asked for: at 1.5M vertices the exact set-up takes 25–30 s and a drag 200 ms on two cores.
+/// Meshes with at least this many vertices are edited on a base mesh unless the exact solve is
+/// asked for: at 1.5M vertices the exact set-up takes 25–30 s and a drag 200 ms on two cores.
 inline constexpr Eigen::Index kMultiresolutionFrom = 500'000;
-// The base's default size: the Buddha's scale, where a drag stays interactive.
+/// The base's default size: the Buddha's scale, where a drag stays interactive.
 inline constexpr Eigen::Index kDefaultBaseVertices = 150'000;
 
-// How a mesh's topology reads: what simplification must keep.
+/// How a mesh's topology reads: what simplification must keep.
 struct MeshTopology {
-  Eigen::Index vertices = 0;  // referenced by a triangle
+  Eigen::Index vertices = 0;  ///< referenced by a triangle
   Eigen::Index edges = 0;
   Eigen::Index triangles = 0;
-  Eigen::Index components = 0;       // of referenced vertices, joined by triangles
-  Eigen::Index boundary_edges = 0;   // in one triangle
-  Eigen::Index nonmanifold_edges = 0;  // in more than two
+  Eigen::Index components = 0;       ///< of referenced vertices, joined by triangles
+  Eigen::Index boundary_edges = 0;   ///< in one triangle
+  Eigen::Index nonmanifold_edges = 0;  ///< in more than two
   Eigen::Index euler_characteristic() const { return vertices - edges + triangles; }
   bool same_as(const MeshTopology& other) const;
-  std::string describe() const;  // "V vertices, χ = …, k components, b boundary edges"
+  std::string describe() const;  ///< "V vertices, χ = …, k components, b boundary edges"
 };
 MeshTopology mesh_topology(const Mesh& mesh);
 
 struct BaseMesh {
-  Mesh mesh;                     // positions: those of its fine vertices, bit for bit
-  std::vector<int> fine_vertex;  // base vertex → its fine vertex, ascending
-  double simplification_error = 0.0;  // the largest collapse's quadric error, over the bounding-box diagonal
+  Mesh mesh;                     ///< positions: those of its fine vertices, bit for bit
+  std::vector<int> fine_vertex;  ///< base vertex → its fine vertex, ascending
+  double simplification_error = 0.0;  ///< the largest collapse's quadric error, over the bounding-box diagonal
 };
 
-// A base of about `target_vertices` vertices by quadric-error halfedge collapses that keep the
-// topology (the link condition; boundary vertices stay), checked against the fine mesh's after.
-// Fewer collapses where no more are allowed. Throws SolveError if the topology changed anyway.
-// A target at or above the fine mesh's size gives the fine mesh itself.
+/// A base of about `target_vertices` vertices by quadric-error halfedge collapses that keep the
+/// topology (the link condition; boundary vertices stay), checked against the fine mesh's after.
+/// Fewer collapses where no more are allowed. Throws SolveError if the topology changed anyway.
+/// A target at or above the fine mesh's size gives the fine mesh itself.
 BaseMesh simplify_to_base(const Mesh& fine, Eigen::Index target_vertices);
 
-// Each fine vertex once against the base at rest: its foot point on a base triangle (that
-// triangle and barycentric coordinates) and the detail vector from the foot to the vertex in the
-// triangle's orthonormal frame (first edge, the normal, their cross product). The foot is the
-// closest point among the base triangles around the base vertex that is nearest along the
-// fine surface, fewest edges away (so thin parts never borrow detail from the other side),
-// preferring triangles that face the way the fine surface does.
+/// Each fine vertex once against the base at rest: its foot point on a base triangle (that
+/// triangle and barycentric coordinates) and the detail vector from the foot to the vertex in the
+/// triangle's orthonormal frame (first edge, the normal, their cross product). The foot is the
+/// closest point among the base triangles around the base vertex that is nearest along the
+/// fine surface, fewest edges away (so thin parts never borrow detail from the other side),
+/// preferring triangles that face the way the fine surface does.
 class DetailEncoding {
  public:
   DetailEncoding() = default;
@@ -63,42 +64,42 @@ class DetailEncoding {
   Eigen::Index fine_count() const { return static_cast<Eigen::Index>(foot_triangle_.size()); }
   Eigen::Index base_count() const { return base_count_; }
 
-  // The fine mesh on a deformed base (base_positions: the base's vertex count × 3): each fine
-  // vertex moves by the change of its foot plus its detail in the triangle's frame, so with the
-  // base at rest every vertex is its rest position to the last bit, and a rigid motion of the
-  // base moves it rigidly. Base vertices take the base's positions. Parallel; allocation-free
-  // once `fine_positions` has the fine size.
+  /// The fine mesh on a deformed base (base_positions: the base's vertex count × 3): each fine
+  /// vertex moves by the change of its foot plus its detail in the triangle's frame, so with the
+  /// base at rest every vertex is its rest position to the last bit, and a rigid motion of the
+  /// base moves it rigidly. Base vertices take the base's positions. Parallel; allocation-free
+  /// once `fine_positions` has the fine size.
   void reconstruct(const Eigen::MatrixXd& base_positions, Eigen::MatrixXd& fine_positions) const;
 
-  // Per-vertex values of the base carried to the fine mesh, linearly over the foot triangles.
+  /// Per-vertex values of the base carried to the fine mesh, linearly over the foot triangles.
   Eigen::VectorXd interpolate(const Eigen::VectorXd& base_values) const;
 
-  // The base vertex of a fine vertex, or −1 when it has none.
+  /// The base vertex of a fine vertex, or −1 when it has none.
   int base_vertex(int fine_vertex) const { return base_of_fine_[static_cast<std::size_t>(fine_vertex)]; }
-  // The corners (base vertices) of a fine vertex's foot triangle; all −1 for a vertex no triangle
-  // references.
+  /// The corners (base vertices) of a fine vertex's foot triangle; all −1 for a vertex no triangle
+  /// references.
   std::array<int, 3> foot_corners(int fine_vertex) const;
-  // The largest distance from a fine vertex to its foot (the detail's largest length).
+  /// The largest distance from a fine vertex to its foot (the detail's largest length).
   double largest_detail() const { return largest_detail_; }
 
  private:
   Eigen::Index base_count_ = 0;
   Eigen::MatrixXi base_triangles_;
   std::vector<int> base_of_fine_;
-  std::vector<int> foot_triangle_;  // −1: unreferenced, kept at rest
-  Eigen::Matrix<double, Eigen::Dynamic, 2, Eigen::RowMajor> barycentric_;  // weights of corners 1 and 2
+  std::vector<int> foot_triangle_;  ///< −1: unreferenced, kept at rest
+  Eigen::Matrix<double, Eigen::Dynamic, 2, Eigen::RowMajor> barycentric_;  ///< weights of corners 1 and 2
   Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> detail_;
-  // The reconstruction's own arithmetic on the rest base: subtracted from the deformed one, so
-  // that the rest base gives back exactly the rest positions.
+  /// The reconstruction's own arithmetic on the rest base: subtracted from the deformed one, so
+  /// that the rest base gives back exactly the rest positions.
   Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> rest_reconstruction_;
   Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> rest_positions_;
   double largest_detail_ = 0.0;
 };
 
-// A fine edit's sets on the base: a base vertex belongs to a set when its fine vertex does. A set
-// with fine vertices but none of the base's (a patch smaller than a base triangle) takes the
-// corners of its vertices' foot triangles that no other set holds. The region of interest is
-// carried the same way, widened by those corners.
+/// A fine edit's sets on the base: a base vertex belongs to a set when its fine vertex does. A set
+/// with fine vertices but none of the base's (a patch smaller than a base triangle) takes the
+/// corners of its vertices' foot triangles that no other set holds. The region of interest is
+/// carried the same way, widened by those corners.
 EditConstraints base_constraints(const EditConstraints& fine, const DetailEncoding& encoding);
 
 }  // namespace hdeform

@@ -1,10 +1,11 @@
 #pragma once
-// Poisson reconstruction (paper §5, design.md). Each triangle is deformed by its own map T_t;
-// the divergence of the deformed gradients at vertex i is
-//   b_i = Σ_{t∋i} A_t (T_t J_t) ∇φ_i = Σ_{t∋i} T_t g_{t,i},   g_{t,i} = Σ_{j∈t} w_ij (p_i − p_j),
-// with w_ij the triangle's cotangent weight of edge ij. The g are fixed by the rest shape, so an
-// update costs one 3×3 product per triangle corner. With every T_t = I, b = L p exactly, so
-// nothing moved reproduces the input. The solve is L_ff x_f = b_f − L_fc x_c.
+/// @file
+/// Poisson reconstruction (paper §5, design.md). Each triangle is deformed by its own map T_t;
+/// the divergence of the deformed gradients at vertex i is
+///   b_i = Σ_{t∋i} A_t (T_t J_t) ∇φ_i = Σ_{t∋i} T_t g_{t,i},   g_{t,i} = Σ_{j∈t} w_ij (p_i − p_j),
+/// with w_ij the triangle's cotangent weight of edge ij. The g are fixed by the rest shape, so an
+/// update costs one 3×3 product per triangle corner. With every T_t = I, b = L p exactly, so
+/// nothing moved reproduces the input. The solve is L_ff x_f = b_f − L_fc x_c.
 #include <Eigen/Core>
 #include <span>
 #include <vector>
@@ -22,13 +23,13 @@ class PoissonAssembler {
   // Keeps a reference to `system`, which must outlive the assembler.
   PoissonAssembler(const Mesh& rest, const CotangentWeights& weights, const DirichletSystem& system);
 
-  // Writes b_f − L_fc x_c into columns first_column .. first_column+2 of `rhs` (factor order).
-  // `maps` has one entry per triangle; the constrained rows of `positions` (n×3) hold their
-  // targets. Parallel over rows, each row summed in a fixed order: the same bits for any
-  // number of threads. Allocation-free.
+  /// Writes b_f − L_fc x_c into columns first_column .. first_column+2 of `rhs` (factor order).
+  /// `maps` has one entry per triangle; the constrained rows of `positions` (n×3) hold their
+  /// targets. Parallel over rows, each row summed in a fixed order: the same bits for any
+  /// number of threads. Allocation-free.
   void assemble(std::span<const Eigen::Matrix3d> maps, const Eigen::MatrixXd& positions, ColumnBlocks& rhs,
                 int first_column = 0) const;
-  // The same for maps about one axis (one handle): Σ T_t g = Σα g + a × Σβ g + a (a · Σγ g).
+  /// The same for maps about one axis (one handle): Σ T_t g = Σα g + a × Σβ g + a (a · Σγ g).
   void assemble(const AxialMaps& maps, const Eigen::MatrixXd& positions, ColumnBlocks& rhs, int first_column = 0) const;
 
  private:
@@ -36,20 +37,20 @@ class PoissonAssembler {
   void assemble_rows(const Eigen::MatrixXd& positions, ColumnBlocks& rhs, int first_column, CornerSum corner_sum) const;
 
   struct Corner {
-    // User-provided, so that resizing leaves the corners to the threads that fill them (an
-    // implicit constructor would have them zero-filled on one thread first).
-    Corner() {}  // NOLINT(modernize-use-equals-default)
+    /// User-provided, so that resizing leaves the corners to the threads that fill them (an
+    /// implicit constructor would have them zero-filled on one thread first).
+    Corner() {}  ///< NOLINT(modernize-use-equals-default)
     Corner(int t, const Eigen::Vector3d& g) : triangle(t), gradient(g) {}
     int triangle = 0;
-    Eigen::Vector3d gradient;  // g_{t,i}
+    Eigen::Vector3d gradient;  ///< g_{t,i}
   };
   const DirichletSystem& system_;
-  std::vector<std::size_t> corner_start_;  // per factor-order row
+  std::vector<std::size_t> corner_start_;  ///< per factor-order row
   std::vector<Corner> corners_;
 };
 
-// One-off reconstruction (allocates): the constrained rows of `positions` hold their targets, the
-// free rows receive the solution.
+/// One-off reconstruction (allocates): the constrained rows of `positions` hold their targets, the
+/// free rows receive the solution.
 void poisson_reconstruct(const PoissonAssembler& assembler, const DirichletSystem& system,
                          std::span<const Eigen::Matrix3d> maps, Eigen::MatrixXd& positions);
 

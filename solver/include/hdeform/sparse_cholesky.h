@@ -1,15 +1,16 @@
 #pragma once
-// One sparse Cholesky factorization, P A Pᵀ = L Lᵀ, computed once and reused for every
-// right-hand side: the harmonic field, the quaternion components and x, y, z.
-//
-// The backends differ only in how L is computed (ordering and numeric factorization). Solves
-// always run through one kernel that reads L once per triangular sweep for all the columns of a
-// block: the solve is memory-bound, so k columns in one pass cost far less than k passes.
-//
-// Both sweeps are gathers (row j of L for the forward sweep, column j for the backward one), so
-// each unknown is summed in one fixed order. That lets the sweeps run in parallel over disjoint
-// subtrees of the elimination tree — each thread reads only its part of the factor — while the
-// result stays bit-identical for any number of threads.
+/// @file
+/// One sparse Cholesky factorization, P A Pᵀ = L Lᵀ, computed once and reused for every
+/// right-hand side: the harmonic field, the quaternion components and x, y, z.
+///
+/// The backends differ only in how L is computed (ordering and numeric factorization). Solves
+/// always run through one kernel that reads L once per triangular sweep for all the columns of a
+/// block: the solve is memory-bound, so k columns in one pass cost far less than k passes.
+///
+/// Both sweeps are gathers (row j of L for the forward sweep, column j for the backward one), so
+/// each unknown is summed in one fixed order. That lets the sweeps run in parallel over disjoint
+/// subtrees of the elimination tree — each thread reads only its part of the factor — while the
+/// result stays bit-identical for any number of threads.
 #include <Eigen/Core>
 #include <Eigen/SparseCore>
 #include <memory>
@@ -21,35 +22,35 @@
 namespace hdeform {
 
 enum class SolverBackend {
-  Tree,     // ours: elimination_ranks (or a given) ordering, rows of L computed in parallel over elimination subtrees
-  Eigen,    // Eigen SimplicialLLT with AMD ordering
-  Cholmod,  // CHOLMOD supernodal LLT through Eigen's CholmodSupport
+  Tree,     ///< ours: elimination_ranks (or a given) ordering, rows of L computed in parallel over elimination subtrees
+  Eigen,    ///< Eigen SimplicialLLT with AMD ordering
+  Cholmod,  ///< CHOLMOD supernodal LLT through Eigen's CholmodSupport
 };
 inline constexpr SolverBackend kSolverBackends[] = {SolverBackend::Tree, SolverBackend::Eigen, SolverBackend::Cholmod};
 
 std::string_view to_string(SolverBackend backend);
 std::optional<SolverBackend> parse_backend(std::string_view name);
 bool backend_available(SolverBackend backend);
-// The backend measured faster on buddha-206k (see README, Performance).
+/// The backend measured faster on buddha-206k (see README, Performance).
 SolverBackend default_backend();
 
-// How a fill-reducing elimination order is found.
+/// How a fill-reducing elimination order is found.
 enum class EliminationOrder {
-  Automatic,         // MinimumDegree below kNestedDissectionFrom unknowns, NestedDissection from there
-  MinimumDegree,     // approximate minimum degree (AMD)
-  NestedDissection,  // METIS nested dissection
+  Automatic,         ///< MinimumDegree below kNestedDissectionFrom unknowns, NestedDissection from there
+  MinimumDegree,     ///< approximate minimum degree (AMD)
+  NestedDissection,  ///< METIS nested dissection
 };
-// Nested dissection costs several times AMD's time (buddha-206k: 33 against 355 ms) and pays it
-// back only on large meshes: at 103K vertices it removes 10% of L's nonzeros and no drag time;
-// at 411K (the Buddha subdivided once) 23% of them, 30% of the factorization and 25% of each
-// drag's solve (README, Performance).
+/// Nested dissection costs several times AMD's time (buddha-206k: 33 against 355 ms) and pays it
+/// back only on large meshes: at 103K vertices it removes 10% of L's nonzeros and no drag time;
+/// at 411K (the Buddha subdivided once) 23% of them, 30% of the factorization and 25% of each
+/// drag's solve (README, Performance).
 inline constexpr Eigen::Index kNestedDissectionFrom = 250'000;
 std::string_view to_string(EliminationOrder order);
-// What Automatic means for a matrix of `unknowns` rows.
+/// What Automatic means for a matrix of `unknowns` rows.
 EliminationOrder elimination_order_for(Eigen::Index unknowns);
 
-// An elimination order of a symmetric matrix's pattern (both triangles stored): rank[i] is the
-// step that eliminates unknown i. Deterministic: the same pattern always gives the same ranks.
+/// An elimination order of a symmetric matrix's pattern (both triangles stored): rank[i] is the
+/// step that eliminates unknown i. Deterministic: the same pattern always gives the same ranks.
 std::vector<int> elimination_ranks(const Eigen::SparseMatrix<double>& matrix, EliminationOrder order = EliminationOrder::Automatic);
 
 class SparseCholesky {
@@ -59,20 +60,20 @@ class SparseCholesky {
   SparseCholesky(SparseCholesky&&) noexcept;
   SparseCholesky& operator=(SparseCholesky&&) noexcept;
 
-  // What the analysis of a sparsity pattern found (ordering, elimination tree, pattern of L and
-  // its split over threads); opaque, shared by factorizations of matrices with that pattern.
+  /// What the analysis of a sparsity pattern found (ordering, elimination tree, pattern of L and
+  /// its split over threads); opaque, shared by factorizations of matrices with that pattern.
   struct Analysis;
-  struct Factor;  // L in the two layouts the sweeps read
+  struct Factor;  ///< L in the two layouts the sweeps read
 
-  // Analyses and factors a symmetric positive definite matrix (both triangles stored).
-  // Throws SolveError when it is not positive definite or the factorization fails.
-  //  - ordering (Tree only; the other backends order by themselves): ordering[i] is unknown i's
-  //    rank in a fill-reducing elimination order, lowest first; empty: AMD on this matrix.
-  //  - reuse (Tree only): an earlier factorization's analysis(); taken, and the analysis
-  //    skipped, when this matrix has exactly the pattern it was made for.
+  /// Analyses and factors a symmetric positive definite matrix (both triangles stored).
+  /// Throws SolveError when it is not positive definite or the factorization fails.
+  ///  - ordering (Tree only; the other backends order by themselves): ordering[i] is unknown i's
+  ///    rank in a fill-reducing elimination order, lowest first; empty: AMD on this matrix.
+  ///  - reuse (Tree only): an earlier factorization's analysis(); taken, and the analysis
+  ///    skipped, when this matrix has exactly the pattern it was made for.
   void factor(const Eigen::SparseMatrix<double>& matrix, SolverBackend backend, std::span<const int> ordering = {},
               const std::shared_ptr<const Analysis>& reuse = nullptr);
-  // This factorization's analysis, for reuse; null unless the backend is Tree.
+  /// This factorization's analysis, for reuse; null unless the backend is Tree.
   std::shared_ptr<const Analysis> analysis() const;
   bool reused_analysis() const;
 
@@ -81,21 +82,21 @@ class SparseCholesky {
   SolverBackend backend() const { return backend_; }
   Eigen::Index factor_nonzeros() const;
 
-  // factor_row()[i]: the row of unknown i in factor order.
+  /// factor_row()[i]: the row of unknown i in factor order.
   const std::vector<int>& factor_row() const;
 
-  // Solves A X = B in place for a row-major block in factor order: row factor_row()[i] holds the
-  // `columns` values of unknown i, consecutive rows `stride` doubles apart. Subtrees of the
-  // elimination tree run concurrently. Allocation-free; safe to call concurrently on distinct
-  // blocks.
+  /// Solves A X = B in place for a row-major block in factor order: row factor_row()[i] holds the
+  /// `columns` values of unknown i, consecutive rows `stride` doubles apart. Subtrees of the
+  /// elimination tree run concurrently. Allocation-free; safe to call concurrently on distinct
+  /// blocks.
   void solve_block(double* block, int columns, int stride) const;
 
-  // How the solve is split: independent subtrees (one list of columns per worker, ascending) and
-  // the columns above them, solved after (forward) or before (backward) the subtrees.
+  /// How the solve is split: independent subtrees (one list of columns per worker, ascending) and
+  /// the columns above them, solved after (forward) or before (backward) the subtrees.
   std::size_t subtree_count() const;
-  double top_fraction() const;  // share of the factor's nonzeros outside the subtrees
+  double top_fraction() const;  ///< share of the factor's nonzeros outside the subtrees
 
-  // Convenience (allocates): X = A⁻¹ B with B and X in natural order, column-major.
+  /// Convenience (allocates): X = A⁻¹ B with B and X in natural order, column-major.
   Eigen::MatrixXd solve(const Eigen::MatrixXd& rhs) const;
 
  private:
@@ -103,24 +104,24 @@ class SparseCholesky {
   SolverBackend backend_ = SolverBackend::Tree;
 };
 
-// How the columns of one solve are spread over threads. Each group is one row-major block solved
-// by one pass over the factor; groups run concurrently.
+/// How the columns of one solve are spread over threads. Each group is one row-major block solved
+/// by one pass over the factor; groups run concurrently.
 enum class SolveSchedule {
-  Blocked,       // all columns in one group
-  PerColumn,     // one group per column
-  ThreadGroups,  // as many groups as threads, columns split evenly
+  Blocked,       ///< all columns in one group
+  PerColumn,     ///< one group per column
+  ThreadGroups,  ///< as many groups as threads, columns split evenly
 };
 
 std::string_view to_string(SolveSchedule schedule);
 std::optional<SolveSchedule> parse_schedule(std::string_view name);
-// The schedule measured fastest for the drag update (see README, Performance).
+/// The schedule measured fastest for the drag update (see README, Performance).
 SolveSchedule default_schedule();
 
-// k right-hand-side columns in factor order, split into groups per a schedule.
+/// k right-hand-side columns in factor order, split into groups per a schedule.
 class ColumnBlocks {
  public:
   ColumnBlocks() = default;
-  // `threads` only matters for ThreadGroups (0: the current TBB concurrency).
+  /// `threads` only matters for ThreadGroups (0: the current TBB concurrency).
   ColumnBlocks(Eigen::Index rows, int columns, SolveSchedule schedule, int threads = 0);
 
   Eigen::Index rows() const { return rows_; }
@@ -134,15 +135,15 @@ class ColumnBlocks {
   }
   double at(Eigen::Index row, int column) const { return const_cast<ColumnBlocks*>(this)->at(row, column); }
 
-  // Solves one group against the factor (one pass over it for all the group's columns).
+  /// Solves one group against the factor (one pass over it for all the group's columns).
   void solve_group(const SparseCholesky& factor, int group);
-  // Solves every group, groups concurrently.
+  /// Solves every group, groups concurrently.
   void solve(const SparseCholesky& factor);
 
  private:
   struct Group {
     int columns = 0;
-    std::vector<double> values;  // rows × columns, row-major
+    std::vector<double> values;  ///< rows × columns, row-major
   };
   struct Slot {
     int group = 0;

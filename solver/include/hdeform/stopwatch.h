@@ -1,6 +1,7 @@
 #pragma once
-// Elapsed time, as every figure hdeform reports it: the steady clock, in milliseconds (or
-// seconds), one definition for the library, the commands and the editor.
+/// @file
+/// Elapsed time, as every figure hdeform reports it: the steady clock, in milliseconds (or
+/// seconds), one definition for the library, the commands and the editor.
 #include <chrono>
 
 namespace hdeform {

@@ -1,25 +1,26 @@
 #pragma once
-// Deformation transfer (paper §6 and §7): the poses of a source mesh copied onto a target mesh
-// from marker pairs, by one of two methods.
-//
-//   correspondence (§6): harmonic coordinates on both meshes (k fields each, one factorization
-//     per mesh); every target triangle takes the deformation gradient of the source triangle
-//     with the nearest coordinate. A target triangle whose nearest source coordinate is farther
-//     than the mismatch threshold is a mismatch: its deformation is interpolated harmonically
-//     (rotation as a quaternion, stretch as a symmetric matrix) from the matched triangles
-//     around it.
-//   interpolation (§7): no correspondence beyond the markers. The deformation at each source
-//     marker (the area-weighted mean gradient of its triangles, as a unit quaternion and a scale)
-//     is a Dirichlet value at its target marker; q0..q3 and s are interpolated harmonically over
-//     the target, quaternions normalised, and each triangle deformed by the value at its
-//     barycenter.
-//
-// Either way the target is rebuilt by the Poisson solve of paper §5 with one vertex pinned per
-// connected component (the first marker in it), and then placed: translated so that the mean of
-// its markers moves as the mean of the source markers did, scaled by the ratio of the two marker
-// sets' spreads. Everything that does not depend on the pose — factorizations, coordinates,
-// matching — is done once, so each pose of a sequence costs right-hand sides and
-// back-substitution.
+/// @file
+/// Deformation transfer (paper §6 and §7): the poses of a source mesh copied onto a target mesh
+/// from marker pairs, by one of two methods.
+///
+///   correspondence (§6): harmonic coordinates on both meshes (k fields each, one factorization
+///     per mesh); every target triangle takes the deformation gradient of the source triangle
+///     with the nearest coordinate. A target triangle whose nearest source coordinate is farther
+///     than the mismatch threshold is a mismatch: its deformation is interpolated harmonically
+///     (rotation as a quaternion, stretch as a symmetric matrix) from the matched triangles
+///     around it.
+///   interpolation (§7): no correspondence beyond the markers. The deformation at each source
+///     marker (the area-weighted mean gradient of its triangles, as a unit quaternion and a scale)
+///     is a Dirichlet value at its target marker; q0..q3 and s are interpolated harmonically over
+///     the target, quaternions normalised, and each triangle deformed by the value at its
+///     barycenter.
+///
+/// Either way the target is rebuilt by the Poisson solve of paper §5 with one vertex pinned per
+/// connected component (the first marker in it), and then placed: translated so that the mean of
+/// its markers moves as the mean of the source markers did, scaled by the ratio of the two marker
+/// sets' spreads. Everything that does not depend on the pose — factorizations, coordinates,
+/// matching — is done once, so each pose of a sequence costs right-hand sides and
+/// back-substitution.
 #include <Eigen/Core>
 #include <memory>
 #include <optional>
@@ -39,33 +40,33 @@ enum class TransferMethod { Correspondence, Interpolation };
 std::string_view to_string(TransferMethod method);
 std::optional<TransferMethod> parse_transfer_method(std::string_view name);
 
-// Harmonic coordinates lie in [0, 1]^k; a target triangle and its nearest source triangle are
-// typically a few hundredths apart (lion → cat, 55 markers: median 0.034, 95th percentile 0.091,
-// largest 0.30). Farther than this, a target triangle is taken to have no counterpart (24 of the
-// cat's 14,410 triangles; at 0.1 it would be 517, and the recovered cat poses slightly worse).
+/// Harmonic coordinates lie in [0, 1]^k; a target triangle and its nearest source triangle are
+/// typically a few hundredths apart (lion → cat, 55 markers: median 0.034, 95th percentile 0.091,
+/// largest 0.30). Farther than this, a target triangle is taken to have no counterpart (24 of the
+/// cat's 14,410 triangles; at 0.1 it would be 517, and the recovered cat poses slightly worse).
 inline constexpr double kDefaultMismatchThreshold = 0.2;
 
 struct TransferOptions {
   TransferMethod method = TransferMethod::Correspondence;
-  int top_n = 0;  // correspondence: compare only this many largest components (0: all k)
-  double mismatch_threshold = kDefaultMismatchThreshold;  // correspondence
+  int top_n = 0;  ///< correspondence: compare only this many largest components (0: all k)
+  double mismatch_threshold = kDefaultMismatchThreshold;  ///< correspondence
   SolverBackend backend = default_backend();
 };
 
 struct TransferSetupTimings {  // milliseconds
-  double source_coordinates_ms = 0.0;  // correspondence: Laplacian, factorization, k columns
-  double target_coordinates_ms = 0.0;  // correspondence: the same on the target
-  double matching_ms = 0.0;            // correspondence: nearest coordinates
-  double mismatch_ms = 0.0;            // correspondence: the system that fills mismatches
-  double marker_fields_ms = 0.0;       // interpolation: the target's factorization with the markers fixed
-  double reconstruction_ms = 0.0;      // the target's Poisson system (factorization, assembler)
+  double source_coordinates_ms = 0.0;  ///< correspondence: Laplacian, factorization, k columns
+  double target_coordinates_ms = 0.0;  ///< correspondence: the same on the target
+  double matching_ms = 0.0;            ///< correspondence: nearest coordinates
+  double mismatch_ms = 0.0;            ///< correspondence: the system that fills mismatches
+  double marker_fields_ms = 0.0;       ///< interpolation: the target's factorization with the markers fixed
+  double reconstruction_ms = 0.0;      ///< the target's Poisson system (factorization, assembler)
   double total_ms = 0.0;
 };
 
 struct TransferPoseTimings {  // milliseconds, the last pose
-  double gradients_ms = 0.0;       // source deformation gradients
-  double fields_ms = 0.0;          // interpolated fields (§7) or mismatch fill (§6)
-  double reconstruction_ms = 0.0;  // right-hand side, solve and placement
+  double gradients_ms = 0.0;       ///< source deformation gradients
+  double fields_ms = 0.0;          ///< interpolated fields (§7) or mismatch fill (§6)
+  double reconstruction_ms = 0.0;  ///< right-hand side, solve and placement
   double total_ms = 0.0;
 };
 
@@ -78,8 +79,8 @@ class DeformationTransfer {
   DeformationTransfer(const DeformationTransfer&) = delete;
   DeformationTransfer& operator=(const DeformationTransfer&) = delete;
 
-  // The target's positions (resized to n_t × 3) for a pose of the source: `source_pose` holds the
-  // source's vertex positions (its rest connectivity). Throws InputError for a wrong vertex count.
+  /// The target's positions (resized to n_t × 3) for a pose of the source: `source_pose` holds the
+  /// source's vertex positions (its rest connectivity). Throws InputError for a wrong vertex count.
   void transfer(const Eigen::MatrixXd& source_pose, Eigen::MatrixXd& target_positions);
 
   const Mesh& source_rest() const { return source_rest_; }
@@ -87,17 +88,17 @@ class DeformationTransfer {
   const MarkerPairs& markers() const { return markers_; }
   const TransferOptions& options() const { return options_; }
 
-  // Correspondence: the source triangle each target triangle takes its deformation from, and
-  // which target triangles are mismatches. Empty for interpolation.
+  /// Correspondence: the source triangle each target triangle takes its deformation from, and
+  /// which target triangles are mismatches. Empty for interpolation.
   const TriangleMatch& match() const { return match_; }
   const std::vector<bool>& mismatched() const { return mismatched_; }
   std::size_t mismatch_count() const;
 
-  // Factorizations made so far: each matrix is factored once, however many poses follow.
+  /// Factorizations made so far: each matrix is factored once, however many poses follow.
   std::size_t factorizations() const { return factorizations_; }
   const TransferSetupTimings& setup_timings() const { return setup_; }
   const TransferPoseTimings& last_pose() const { return last_pose_; }
-  // Findings the user should know about (stray components, mismatches).
+  /// Findings the user should know about (stray components, mismatches).
   const std::vector<std::string>& warnings() const { return warnings_; }
 
  private:
@@ -105,10 +106,10 @@ class DeformationTransfer {
   struct MarkerFields;
   struct MismatchFill;
 
-  // A mesh's cotangent weights, its Laplacian and the AMD order of the whole Laplacian that every
-  // system on the mesh eliminates in: computed once per mesh (the target has up to three systems).
+  /// A mesh's cotangent weights, its Laplacian and the AMD order of the whole Laplacian that every
+  /// system on the mesh eliminates in: computed once per mesh (the target has up to three systems).
   struct Operators;
-  // Partitions with `fixed` (sorted) as the fixed vertices and factors L_ff; counts it.
+  /// Partitions with `fixed` (sorted) as the fixed vertices and factors L_ff; counts it.
   std::unique_ptr<DirichletSystem> factor(const Mesh& mesh, const Operators& operators, const std::vector<int>& fixed, VertexPartition& partition);
   void setup_correspondence(const Operators& source_operators, const ProgressCallback& progress);
   void setup_interpolation();
@@ -134,9 +135,9 @@ class DeformationTransfer {
   std::vector<std::string> warnings_;
 };
 
-// How far a result is from an expected mesh with the same vertices: the RMS vertex distance after
-// the best rigid alignment of the result onto the expected mesh (Kabsch), divided by the expected
-// mesh's bounding-box diagonal.
+/// How far a result is from an expected mesh with the same vertices: the RMS vertex distance after
+/// the best rigid alignment of the result onto the expected mesh (Kabsch), divided by the expected
+/// mesh's bounding-box diagonal.
 double aligned_rms_error(const Eigen::MatrixXd& result, const Eigen::MatrixXd& expected);
 
 }  // namespace hdeform

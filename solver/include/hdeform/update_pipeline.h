@@ -1,16 +1,17 @@
 #pragma once
-// Runs Deformer updates off the caller's thread (the editor's render thread never solves).
-// When transforms arrive faster than updates finish, the newest wins: a request replaces the
-// one still waiting instead of queueing behind it, so the result on screen is never stale by
-// more than the update in flight.
-//
-// The updates run on a thread of the pipeline's own, not on a TBB worker: a worker driving the
-// update would be one of the P-1 workers TBB starts, leaving its parallel stages one thread
-// fewer (on 2 cores, none to help).
-//
-// With refinement on, the thread answers each request with the paper's update first and then,
-// while no newer request waits, runs as-rigid-as-possible iterations one at a time, publishing
-// each, until they converge; a new request takes over after the iteration in flight.
+/// @file
+/// Runs Deformer updates off the caller's thread (the editor's render thread never solves).
+/// When transforms arrive faster than updates finish, the newest wins: a request replaces the
+/// one still waiting instead of queueing behind it, so the result on screen is never stale by
+/// more than the update in flight.
+///
+/// The updates run on a thread of the pipeline's own, not on a TBB worker: a worker driving the
+/// update would be one of the P-1 workers TBB starts, leaving its parallel stages one thread
+/// fewer (on 2 cores, none to help).
+///
+/// With refinement on, the thread answers each request with the paper's update first and then,
+/// while no newer request waits, runs as-rigid-as-possible iterations one at a time, publishing
+/// each, until they converge; a new request takes over after the iteration in flight.
 #include <Eigen/Core>
 #include <chrono>
 #include <condition_variable>
@@ -30,47 +31,47 @@ class UpdatePipeline {
  public:
   struct Result {
     const Eigen::MatrixXd& positions;
-    std::uint64_t request;  // the number submit() returned for these transforms
-    double update_ms;       // the paper's update, or the refinement iteration
-    // Refinement iterations in these positions (0: the paper's update) and where they stand.
+    std::uint64_t request;  ///< the number submit() returned for these transforms
+    double update_ms;       ///< the paper's update, or the refinement iteration
+    /// Refinement iterations in these positions (0: the paper's update) and where they stand.
     RefinementStatus refinement;
   };
-  // Called on a worker thread after each finished update; must not block for long.
+  /// Called on a worker thread after each finished update; must not block for long.
   using Publish = std::function<void(const Result&)>;
 
-  // Keeps references to both; the deformer must outlive the pipeline.
+  /// Keeps references to both; the deformer must outlive the pipeline.
   UpdatePipeline(Deformer& deformer, Publish publish);
-  ~UpdatePipeline();  // finishes the update in flight; a request still waiting is dropped
+  ~UpdatePipeline();  ///< finishes the update in flight; a request still waiting is dropped
   UpdatePipeline(const UpdatePipeline&) = delete;
   UpdatePipeline& operator=(const UpdatePipeline&) = delete;
 
-  // Posts transforms (one per handle); returns at once with the request's number.
+  /// Posts transforms (one per handle); returns at once with the request's number.
   std::uint64_t submit(std::span<const HandleTransform> transforms);
-  // Blocks until no update is waiting or running and the refinement, when on, has converged.
+  /// Blocks until no update is waiting or running and the refinement, when on, has converged.
   void wait_idle();
-  // ... and then the positions last published: the final answer to the last request.
+  /// ... and then the positions last published: the final answer to the last request.
   Eigen::MatrixXd settled_positions();
-  // Refinement after each update (off at first). Turning it on refines the last result.
+  /// Refinement after each update (off at first). Turning it on refines the last result.
   void set_refinement(bool on);
   bool refinement() const;
-  // Refinement starts only once no request has come for this long (0 at first). On a CPU device,
-  // where iterations would take the cores the rasterizer needs, the editor waits for the input to
-  // rest, so that a drag is answered as fast as without refinement.
+  /// Refinement starts only once no request has come for this long (0 at first). On a CPU device,
+  /// where iterations would take the cores the rasterizer needs, the editor waits for the input to
+  /// rest, so that a drag is answered as fast as without refinement.
   void set_refinement_delay(std::chrono::milliseconds delay);
-  // Refinement iterations are published at most this often (0 at first: each); the last of a run
-  // (converged, or at the cap) always is. On a CPU device every publication is a frame drawn on
-  // the cores the iterations need.
+  /// Refinement iterations are published at most this often (0 at first: each); the last of a run
+  /// (converged, or at the cap) always is. On a CPU device every publication is a frame drawn on
+  /// the cores the iterations need.
   void set_refinement_publication_interval(std::chrono::milliseconds interval);
 
   std::uint64_t finished_updates() const;
-  std::uint64_t superseded_requests() const;  // replaced by a newer one before they started
-  // The failure of the latest update that threw (the previous result stays published), or null.
+  std::uint64_t superseded_requests() const;  ///< replaced by a newer one before they started
+  /// The failure of the latest update that threw (the previous result stays published), or null.
   std::exception_ptr last_error() const;
 
  private:
   void run();
-  bool wants_refinement() const;  // with the lock held
-  bool has_work() const;          // with the lock held
+  bool wants_refinement() const;  ///< with the lock held
+  bool has_work() const;          ///< with the lock held
 
   Deformer& deformer_;
   Publish publish_;
@@ -80,14 +81,14 @@ class UpdatePipeline {
   std::vector<HandleTransform> pending_;
   std::vector<HandleTransform> current_;
   bool has_pending_ = false;
-  bool busy_ = false;  // the thread is answering a request or refining (the lock is not held meanwhile)
+  bool busy_ = false;  ///< the thread is answering a request or refining (the lock is not held meanwhile)
   bool refine_ = false;
-  bool refined_out_ = true;  // the last result needs no more iterations (converged, or no refinement)
-  bool has_result_ = false;  // a request has been answered: there is something to refine
+  bool refined_out_ = true;  ///< the last result needs no more iterations (converged, or no refinement)
+  bool has_result_ = false;  ///< a request has been answered: there is something to refine
   bool stopping_ = false;
   std::uint64_t submitted_ = 0;
   std::uint64_t pending_request_ = 0;
-  std::uint64_t answered_request_ = 0;  // the request the published positions answer
+  std::uint64_t answered_request_ = 0;  ///< the request the published positions answer
   std::chrono::steady_clock::time_point last_submit_{};
   std::chrono::milliseconds refinement_delay_{0};
   std::chrono::milliseconds publication_interval_{0};
@@ -96,7 +97,7 @@ class UpdatePipeline {
   std::uint64_t superseded_ = 0;
   std::exception_ptr error_;
   Eigen::MatrixXd positions_;
-  std::thread thread_;  // last: starts once every member above exists
+  std::thread thread_;  ///< last: starts once every member above exists
 };
 
 }  // namespace hdeform

@@ -1,7 +1,8 @@
 #pragma once
-// Frames in flight: each slot has its own command buffer, fence and image-available semaphore.
-// A slot is reused only after its fence says the GPU finished with it, so the CPU can prepare the
-// next frame while the previous one renders.
+/// @file
+/// Frames in flight: each slot has its own command buffer, fence and image-available semaphore.
+/// A slot is reused only after its fence says the GPU finished with it, so the CPU can prepare the
+/// next frame while the previous one renders.
 #include <chrono>
 #include <condition_variable>
 #include <mutex>
@@ -21,7 +22,7 @@ class FrameSlots {
     VkCommandBuffer commands = VK_NULL_HANDLE;
     VkFence fence = VK_NULL_HANDLE;
     VkSemaphore image_available = VK_NULL_HANDLE;
-    std::uint64_t frame = 0;  // the last frame submitted from this slot
+    std::uint64_t frame = 0;  ///< the last frame submitted from this slot
   };
 
   FrameSlots(const VulkanContext& context, uint32_t count = kFramesInFlight);
@@ -30,18 +31,18 @@ class FrameSlots {
   FrameSlots& operator=(const FrameSlots&) = delete;
 
   uint32_t count() const { return static_cast<uint32_t>(slots_.size()); }
-  // The next slot, round robin, once the GPU has finished its previous frame; recording begun.
+  /// The next slot, round robin, once the GPU has finished its previous frame; recording begun.
   Slot& begin();
-  // Whether the next slot's previous frame has finished, waiting at most `timeout`.
+  /// Whether the next slot's previous frame has finished, waiting at most `timeout`.
   bool next_ready(std::chrono::nanoseconds timeout);
-  // Ends recording and submits; waits on `wait` (at colour output) and signals `signal` if given.
-  // Returns the frame's number (1, 2, ...), which the completion timer reports back.
+  /// Ends recording and submits; waits on `wait` (at colour output) and signals `signal` if given.
+  /// Returns the frame's number (1, 2, ...), which the completion timer reports back.
   std::uint64_t submit(Slot& slot, VkSemaphore wait = VK_NULL_HANDLE, VkSemaphore signal = VK_NULL_HANDLE);
-  // Waits until every slot's frame has finished.
+  /// Waits until every slot's frame has finished.
   void wait_all();
 
-  // When each submitted frame finished on the device (needs timeline semaphores; a thread waits on
-  // the frame numbers in turn), for figures such as input-to-screen latency.
+  /// When each submitted frame finished on the device (needs timeline semaphores; a thread waits on
+  /// the frame numbers in turn), for figures such as input-to-screen latency.
   struct Completion {
     std::uint64_t frame;
     std::chrono::steady_clock::time_point time;
@@ -49,9 +50,9 @@ class FrameSlots {
   void enable_completion_times();
   std::vector<Completion> take_completions();
 
-  // The device's own time for each finished frame (timestamp queries at the start and end of its
-  // commands), where the device has timestamps; also in the trace, on a "device" track, ending
-  // when the frame was seen finished. Frames in finishing order.
+  /// The device's own time for each finished frame (timestamp queries at the start and end of its
+  /// commands), where the device has timestamps; also in the trace, on a "device" track, ending
+  /// when the frame was seen finished. Frames in finishing order.
   struct DeviceTime {
     std::uint64_t frame;
     double milliseconds;
@@ -70,9 +71,9 @@ class FrameSlots {
   std::condition_variable submitted_signal_;
   std::vector<Completion> completions_;
   bool stopping_ = false;
-  VkQueryPool queries_ = VK_NULL_HANDLE;  // two timestamps per slot
-  double timestamp_ns_ = 0.0;             // nanoseconds per timestamp tick
-  std::vector<DeviceTime> device_times_;  // render thread only
+  VkQueryPool queries_ = VK_NULL_HANDLE;  ///< two timestamps per slot
+  double timestamp_ns_ = 0.0;             ///< nanoseconds per timestamp tick
+  std::vector<DeviceTime> device_times_;  ///< render thread only
   void read_device_time(const Slot& slot);
 };
 

@@ -1,8 +1,9 @@
 #pragma once
-// The handoff of vertex geometry from the solver to the renderer. The solver fills the back
-// buffer and publishes it with one atomic exchange; the renderer takes the newest published
-// buffer at the start of a frame without ever waiting. A third slot is the one the renderer is
-// reading, so neither side blocks the other.
+/// @file
+/// The handoff of vertex geometry from the solver to the renderer. The solver fills the back
+/// buffer and publishes it with one atomic exchange; the renderer takes the newest published
+/// buffer at the start of a frame without ever waiting. A third slot is the one the renderer is
+/// reading, so neither side blocks the other.
 #include <Eigen/Core>
 
 #include <array>
@@ -12,11 +13,11 @@
 
 namespace hdeform::engine {
 
-// Positions and normals as the GPU reads them: 6 floats per vertex, interleaved.
+/// Positions and normals as the GPU reads them: 6 floats per vertex, interleaved.
 struct GeometrySnapshot {
   std::vector<float> position_normal;
-  std::uint64_t version = 0;  // increases with every publication
-  std::uint64_t tag = 0;      // the publisher's label (the editor: the request it answers)
+  std::uint64_t version = 0;  ///< increases with every publication
+  std::uint64_t tag = 0;      ///< the publisher's label (the editor: the request it answers)
 };
 
 class GeometryExchange {
@@ -25,41 +26,41 @@ class GeometryExchange {
 
   std::size_t vertex_count() const { return vertex_count_; }
 
-  // Writer (one thread): fill back(), then publish() it.
+  /// Writer (one thread): fill back(), then publish() it.
   GeometrySnapshot& back() { return slots_[back_]; }
   void publish();
 
-  // Reader (one thread): the newest published snapshot (the same as last time if nothing new
-  // came), or nullptr before the first publication. Never blocks.
+  /// Reader (one thread): the newest published snapshot (the same as last time if nothing new
+  /// came), or nullptr before the first publication. Never blocks.
   const GeometrySnapshot* acquire();
 
  private:
   static constexpr std::uint32_t kFresh = 4;
   std::size_t vertex_count_;
   std::array<GeometrySnapshot, 3> slots_;
-  std::atomic<std::uint32_t> ready_{1};  // slot index, | kFresh when not yet taken
+  std::atomic<std::uint32_t> ready_{1};  ///< slot index, | kFresh when not yet taken
   std::uint32_t back_ = 0;
   std::uint32_t front_ = 2;
   bool has_front_ = false;
   std::uint64_t published_ = 0;
 };
 
-// Area-weighted vertex normals, recomputed in parallel from positions; each vertex sums its
-// triangles in a fixed order.
+/// Area-weighted vertex normals, recomputed in parallel from positions; each vertex sums its
+/// triangles in a fixed order.
 class VertexNormals {
  public:
   VertexNormals(const Eigen::MatrixXi& triangles, Eigen::Index vertex_count);
-  // Writes positions (as floats) and unit normals into `snapshot`. Allocation-free.
+  /// Writes positions (as floats) and unit normals into `snapshot`. Allocation-free.
   void write(const Eigen::MatrixXd& positions, GeometrySnapshot& snapshot);
 
  private:
   Eigen::MatrixXi triangles_;
-  std::vector<int> triangle_start_;  // per vertex: its incident triangles
+  std::vector<int> triangle_start_;  ///< per vertex: its incident triangles
   std::vector<int> incident_;
   std::vector<Eigen::Vector3d> face_normals_;
 };
 
-// What the solver thread calls after each update: positions → back buffer with normals → publish.
+/// What the solver thread calls after each update: positions → back buffer with normals → publish.
 class GeometryPublisher {
  public:
   GeometryPublisher(GeometryExchange& exchange, const Eigen::MatrixXi& triangles);

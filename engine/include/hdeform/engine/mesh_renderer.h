@@ -1,9 +1,10 @@
 #pragma once
-// Draws one mesh: smooth or flat shading, the scalar field as a colormap with isolines and a
-// colour bar, vertex classes, back faces tinted, an optional wireframe overlay, markers, and a
-// ground grid over a neutral background (the clear colour: a full-screen gradient cost a CPU
-// rasterizer 12% of its frame). The same object draws into any target created with a
-// compatible render pass (render_targets.h).
+/// @file
+/// Draws one mesh: smooth or flat shading, the scalar field as a colormap with isolines and a
+/// colour bar, vertex classes, back faces tinted, an optional wireframe overlay, markers, and a
+/// ground grid over a neutral background (the clear colour: a full-screen gradient cost a CPU
+/// rasterizer 12% of its frame). The same object draws into any target created with a
+/// compatible render pass (render_targets.h).
 #include <Eigen/Core>
 #include <span>
 #include <vector>
@@ -17,28 +18,28 @@
 namespace hdeform::engine {
 
 struct RenderSettings {
-  bool show_field = true;    // the field's colormap, when a field is set
-  bool show_classes = true;  // fixed and handle vertices in their colours
+  bool show_field = true;    ///< the field's colormap, when a field is set
+  bool show_classes = true;  ///< fixed and handle vertices in their colours
   bool flat_shading = false;
   bool wireframe = false;
-  bool lighting = true;      // off: plain colours (tests read colormap values directly)
+  bool lighting = true;      ///< off: plain colours (tests read colormap values directly)
   bool ground = true;
-  bool legend = true;        // colour bar of the field's range, with a tick per isoline
-  // Back faces drawn (tinted): Auto draws them for open meshes only. On a closed mesh they are
-  // hidden unless it intersects itself, and skipping them halves a CPU rasterizer's work.
+  bool legend = true;        ///< colour bar of the field's range, with a tick per isoline
+  /// Back faces drawn (tinted): Auto draws them for open meshes only. On a closed mesh they are
+  /// hidden unless it intersects itself, and skipping them halves a CPU rasterizer's work.
   enum class BackFaces { Auto, Show, Cull } back_faces = BackFaces::Auto;
-  float field_min = 0.0f;    // the value at the colormap's start
-  float field_max = 1.0f;    // ... and at its end
-  float isoline_step = 0.1f; // 0: no isolines
-  float isoline_width = 1.5f;  // pixels
-  bool proxy = false;        // draw the proxy set by set_proxy (when there is one) instead of the mesh
+  float field_min = 0.0f;    ///< the value at the colormap's start
+  float field_max = 1.0f;    ///< ... and at its end
+  float isoline_step = 0.1f; ///< 0: no isolines
+  float isoline_width = 1.5f;  ///< pixels
+  bool proxy = false;        ///< draw the proxy set by set_proxy (when there is one) instead of the mesh
 };
 
-// Vertex classes as the shaders read them.
+/// Vertex classes as the shaders read them.
 inline uint32_t fixed_class() { return HD_CLASS_FIXED; }
 inline uint32_t outside_class() { return HD_CLASS_OUTSIDE; }
 inline uint32_t handle_class(std::size_t handle) { return HD_CLASS_HANDLE_FIRST + static_cast<uint32_t>(handle); }
-// A vertex drawn in its own colour (components in [0, 1]), shown with the classes.
+/// A vertex drawn in its own colour (components in [0, 1]), shown with the classes.
 inline uint32_t color_class(const Eigen::Vector3f& rgb) {
   const Eigen::Vector3f clamped = rgb.cwiseMax(0.0f).cwiseMin(1.0f) * 255.0f + Eigen::Vector3f::Constant(0.5f);
   return HD_CLASS_RGB | static_cast<uint32_t>(clamped.x()) | (static_cast<uint32_t>(clamped.y()) << 8) | (static_cast<uint32_t>(clamped.z()) << 16);
@@ -46,7 +47,7 @@ inline uint32_t color_class(const Eigen::Vector3f& rgb) {
 
 struct Marker {
   Eigen::Vector3f position;
-  uint32_t color = 0;  // index into the handle colours
+  uint32_t color = 0;  ///< index into the handle colours
 };
 
 class MeshRenderer {
@@ -56,33 +57,33 @@ class MeshRenderer {
   MeshRenderer(const MeshRenderer&) = delete;
   MeshRenderer& operator=(const MeshRenderer&) = delete;
 
-  // A new mesh (waits until the device is idle). Its geometry then comes from `geometry`, which
-  // must outlive this renderer or the next set_mesh; `rest` places the ground and the camera.
+  /// A new mesh (waits until the device is idle). Its geometry then comes from `geometry`, which
+  /// must outlive this renderer or the next set_mesh; `rest` places the ground and the camera.
   void set_mesh(const Eigen::MatrixXi& triangles, GeometryExchange& geometry, const Bounds& rest, UpAxis up);
-  // A coarser set of triangles over the same vertices (proxy_mesh.h), drawn when the settings ask
-  // for it; empty: none. Reset by set_mesh.
+  /// A coarser set of triangles over the same vertices (proxy_mesh.h), drawn when the settings ask
+  /// for it; empty: none. Reset by set_mesh.
   void set_proxy(const Eigen::MatrixXi& triangles);
   bool has_proxy() const { return proxy_index_count_ > 0; }
-  // Whether every edge of the mesh set last has two triangles (no boundary).
+  /// Whether every edge of the mesh set last has two triangles (no boundary).
   bool mesh_is_closed() const { return closed_; }
-  // Per-vertex field values (empty: none) and classes (empty: all free).
+  /// Per-vertex field values (empty: none) and classes (empty: all free).
   void set_field(std::span<const float> values);
   void set_classes(std::span<const uint32_t> classes);
   void set_markers(std::span<const Marker> markers);
 
-  // Before recording frame slot `frame` (whose previous submission the caller has waited for):
-  // takes the newest published geometry without waiting, uploads what changed, writes uniforms.
+  /// Before recording frame slot `frame` (whose previous submission the caller has waited for):
+  /// takes the newest published geometry without waiting, uploads what changed, writes uniforms.
   void prepare(uint32_t frame, const Camera& camera, const RenderSettings& settings, VkExtent2D extent) {
     prepare(frame, camera, settings, VkRect2D{{0, 0}, extent});
   }
-  // Records the draws inside a begun render pass.
+  /// Records the draws inside a begun render pass.
   void record(VkCommandBuffer commands, uint32_t frame, VkExtent2D extent) const { record(commands, frame, VkRect2D{{0, 0}, extent}); }
-  // The same into a part of the target (several views side by side): the camera's aspect and
-  // every pixel size are the area's.
+  /// The same into a part of the target (several views side by side): the camera's aspect and
+  /// every pixel size are the area's.
   void prepare(uint32_t frame, const Camera& camera, const RenderSettings& settings, VkRect2D area);
   void record(VkCommandBuffer commands, uint32_t frame, VkRect2D area) const;
 
-  // Version and tag of the geometry the last prepare() took for its frame (0: none yet).
+  /// Version and tag of the geometry the last prepare() took for its frame (0: none yet).
   std::uint64_t drawn_geometry_version() const { return drawn_geometry_version_; }
   std::uint64_t drawn_geometry_tag() const { return drawn_geometry_tag_; }
 
@@ -97,7 +98,7 @@ class MeshRenderer {
     Buffer markers;
     std::uint64_t markers_version = 0;
     uint32_t marker_count = 0;
-    RenderSettings settings;  // as prepared
+    RenderSettings settings;  ///< as prepared
     bool has_geometry = false;
     bool field_visible = false;
   };
@@ -110,8 +111,8 @@ class MeshRenderer {
   VkDescriptorSetLayout descriptor_layout_ = VK_NULL_HANDLE;
   VkDescriptorPool descriptor_pool_ = VK_NULL_HANDLE;
   VkPipelineLayout pipeline_layout_ = VK_NULL_HANDLE;
-  VkPipeline surface_[2][2] = {};  // [flat shading][back faces culled]
-  VkPipeline wireframe_ = VK_NULL_HANDLE;  // null where the device cannot draw lines of polygons
+  VkPipeline surface_[2][2] = {};  ///< [flat shading][back faces culled]
+  VkPipeline wireframe_ = VK_NULL_HANDLE;  ///< null where the device cannot draw lines of polygons
   VkPipeline ground_ = VK_NULL_HANDLE;
   VkPipeline markers_ = VK_NULL_HANDLE;
   VkPipeline legend_ = VK_NULL_HANDLE;
@@ -126,7 +127,7 @@ class MeshRenderer {
   Bounds rest_bounds_;
   bool closed_ = false;
   UpAxis up_ = UpAxis::Z;
-  std::vector<float> attributes_;  // field, class (as bits) per vertex
+  std::vector<float> attributes_;  ///< field, class (as bits) per vertex
   bool has_field_ = false;
   std::uint64_t attributes_version_ = 1;
   std::vector<Marker> markers_cpu_;

@@ -1,6 +1,7 @@
 #pragma once
-// One picture of a mesh, without a window: what `hdeform render`, `edit --png` and the golden-
-// image tests use.
+/// @file
+/// One picture of a mesh, without a window: what `hdeform render`, `edit --png` and the golden-
+/// image tests use.
 #include <Eigen/Core>
 #include <optional>
 #include <vector>
@@ -13,22 +14,22 @@
 namespace hdeform::engine {
 
 struct Scene {
-  Eigen::MatrixXd positions;       // n×3, as drawn
-  Eigen::MatrixXi triangles;       // m×3
-  Eigen::VectorXd field;           // per vertex, or empty
-  std::vector<uint32_t> classes;   // per vertex (fixed_class(), handle_class(k)), or empty
+  Eigen::MatrixXd positions;       ///< n×3, as drawn
+  Eigen::MatrixXi triangles;       ///< m×3
+  Eigen::VectorXd field;           ///< per vertex, or empty
+  std::vector<uint32_t> classes;   ///< per vertex (fixed_class(), handle_class(k)), or empty
   std::vector<Marker> markers;
-  Bounds rest_bounds;              // places the camera and the ground; from positions when empty
+  Bounds rest_bounds;              ///< places the camera and the ground; from positions when empty
   UpAxis up = UpAxis::Z;
-  Eigen::MatrixXi proxy_triangles; // drawn instead with shot.settings.proxy (proxy_mesh.h), or empty
+  Eigen::MatrixXi proxy_triangles; ///< drawn instead with shot.settings.proxy (proxy_mesh.h), or empty
 };
 
 struct Shot {
   uint32_t width = 512;
   uint32_t height = 512;
-  int samples = 4;                 // reduced to what the device supports
+  int samples = 4;                 ///< reduced to what the device supports
   RenderSettings settings;
-  std::optional<Camera> camera;    // default: three-quarter front view of rest_bounds
+  std::optional<Camera> camera;    ///< default: three-quarter front view of rest_bounds
 };
 
 Pixels render_offscreen(const VulkanContext& context, const Scene& scene, const Shot& shot);

@@ -1,7 +1,8 @@
 #pragma once
-// The colours the renderer uses: the scalar-field colormap (viridis, sampled at
-// HD_COLORMAP_SAMPLES points) and one colour per vertex class. The GPU gets these tables through
-// the frame uniforms; the C++ side evaluates the colormap the same way (for tests and legends).
+/// @file
+/// The colours the renderer uses: the scalar-field colormap (viridis, sampled at
+/// HD_COLORMAP_SAMPLES points) and one colour per vertex class. The GPU gets these tables through
+/// the frame uniforms; the C++ side evaluates the colormap the same way (for tests and legends).
 #include <Eigen/Core>
 #include <array>
 
@@ -11,10 +12,10 @@ namespace hdeform::engine {
 
 const std::array<Eigen::Vector3f, HD_COLORMAP_SAMPLES>& colormap_samples();
 
-// The colormap at t ∈ [0, 1] (clamped), interpolated like the shader does.
+/// The colormap at t ∈ [0, 1] (clamped), interpolated like the shader does.
 Eigen::Vector3f colormap(float t);
 
-// Fixed vertices, vertices outside the region of interest, then handle 0, 1, ...
+/// Fixed vertices, vertices outside the region of interest, then handle 0, 1, ...
 const std::array<Eigen::Vector3f, HD_CLASS_COLORS>& class_colors();
 
 }  // namespace hdeform::engine

@@ -1,8 +1,9 @@
 #pragma once
-// Where frames go. Both targets share one render pass layout — multisampled colour and depth,
-// resolved into a single-sampled image — so the same pipelines draw into either:
-//   OffscreenTarget: an image read back to memory (no window system, no X server);
-//   SwapchainTarget: a window's swapchain (see swapchain_target.h).
+/// @file
+/// Where frames go. Both targets share one render pass layout — multisampled colour and depth,
+/// resolved into a single-sampled image — so the same pipelines draw into either:
+///   OffscreenTarget: an image read back to memory (no window system, no X server);
+///   SwapchainTarget: a window's swapchain (see swapchain_target.h).
 #include <cstdint>
 #include <vector>
 
@@ -16,29 +17,29 @@ struct PassFormat {
   VkSampleCountFlagBits samples = VK_SAMPLE_COUNT_1_BIT;
 };
 
-// A depth format the device can render to.
+/// A depth format the device can render to.
 VkFormat choose_depth_format(const VulkanContext& context);
 
-// Clears colour and depth, draws, resolves (when multisampled) into the single-sampled colour
-// attachment, which ends in `final_layout`.
+/// Clears colour and depth, draws, resolves (when multisampled) into the single-sampled colour
+/// attachment, which ends in `final_layout`.
 VkRenderPass create_scene_render_pass(const VulkanContext& context, const PassFormat& format, VkImageLayout final_layout);
 
-// The multisampled colour and the depth image of one framebuffer size.
+/// The multisampled colour and the depth image of one framebuffer size.
 struct SceneAttachments {
-  Image multisampled_color;  // only when samples > 1
+  Image multisampled_color;  ///< only when samples > 1
   Image depth;
   void create(const VulkanContext& context, const PassFormat& format, VkExtent2D extent);
   void destroy(const VulkanContext& context);
-  // Framebuffer attachments in render pass order, around the single-sampled `target` view.
+  /// Framebuffer attachments in render pass order, around the single-sampled `target` view.
   std::vector<VkImageView> views(const PassFormat& format, VkImageView target) const;
 };
 
-// The neutral background every picture is cleared to.
+/// The neutral background every picture is cleared to.
 inline constexpr float kBackground[3] = {0.80f, 0.82f, 0.85f};
 
 void begin_scene_pass(VkCommandBuffer commands, VkRenderPass pass, VkFramebuffer framebuffer, VkExtent2D extent);
 
-// RGBA, 8 bits per channel, rows top to bottom.
+/// RGBA, 8 bits per channel, rows top to bottom.
 struct Pixels {
   uint32_t width = 0;
   uint32_t height = 0;
@@ -57,9 +58,9 @@ class OffscreenTarget {
   VkExtent2D extent() const { return extent_; }
 
   void begin(VkCommandBuffer commands);
-  // Ends the pass and copies the image into host memory; pixels() is valid once the commands ran.
+  /// Ends the pass and copies the image into host memory; pixels() is valid once the commands ran.
   void finish(VkCommandBuffer commands);
-  // Ends the pass only (frames that are not read back).
+  /// Ends the pass only (frames that are not read back).
   void end(VkCommandBuffer commands) { vkCmdEndRenderPass(commands); }
   Pixels pixels() const;
 

@@ -1,7 +1,8 @@
 #pragma once
-// A window's swapchain as a render target (the window system stays outside: the context owns
-// the surface, and the caller says how big the framebuffer is). One render-finished semaphore
-// per swapchain image, as presentation may hold an image longer than a frame slot.
+/// @file
+/// A window's swapchain as a render target (the window system stays outside: the context owns
+/// the surface, and the caller says how big the framebuffer is). One render-finished semaphore
+/// per swapchain image, as presentation may hold an image longer than a frame slot.
 #include <atomic>
 #include <condition_variable>
 #include <deque>
@@ -32,18 +33,18 @@ class SwapchainTarget {
   VkExtent2D extent() const { return extent_; }
   bool minimised() const { return extent_.width == 0 || extent_.height == 0; }
 
-  // Acquires the next image, signalling `image_available`. Returns false when there is nothing
-  // to draw into this time (minimised, or the swapchain was just rebuilt for a new size).
+  /// Acquires the next image, signalling `image_available`. Returns false when there is nothing
+  /// to draw into this time (minimised, or the swapchain was just rebuilt for a new size).
   bool acquire(VkSemaphore image_available, uint32_t& image);
   void begin(VkCommandBuffer commands, uint32_t image);
-  // Ends the pass; with `keep_copy` also copies the image for read_last_image().
+  /// Ends the pass; with `keep_copy` also copies the image for read_last_image().
   void end(VkCommandBuffer commands, uint32_t image, bool keep_copy = false);
   VkSemaphore render_finished(uint32_t image) const { return images_[image].render_finished; }
-  // Presents (waiting on render_finished); rebuilds the swapchain when it is out of date.
+  /// Presents (waiting on render_finished); rebuilds the swapchain when it is out of date.
   void present(uint32_t image);
-  // Rebuilds for the current framebuffer size (after a resize event).
+  /// Rebuilds for the current framebuffer size (after a resize event).
   void rebuild();
-  // The last image ended with keep_copy, once its frame has finished (RGBA).
+  /// The last image ended with keep_copy, once its frame has finished (RGBA).
   Pixels read_last_image();
 
  private:
@@ -57,7 +58,7 @@ class SwapchainTarget {
   void destroy_swapchain();
   void present_now(uint32_t image);
   void wait_for_presenter();
-  void rethrow_present_error(std::unique_lock<std::mutex>& locked);  // with present_mutex_ held
+  void rethrow_present_error(std::unique_lock<std::mutex>& locked);  ///< with present_mutex_ held
 
   const VulkanContext& context_;
   std::function<VkExtent2D()> framebuffer_size_;
@@ -73,7 +74,7 @@ class SwapchainTarget {
   VkExtent2D copy_extent_{0, 0};
 
   std::thread presenter_;
-  // vkAcquireNextImageKHR and vkQueuePresentKHR both need the swapchain to themselves.
+  /// vkAcquireNextImageKHR and vkQueuePresentKHR both need the swapchain to themselves.
   std::mutex swapchain_mutex_;
   std::mutex present_mutex_;
   std::condition_variable present_signal_;
@@ -81,7 +82,7 @@ class SwapchainTarget {
   bool presenting_ = false;
   bool stopping_ = false;
   std::atomic<bool> out_of_date_{false};
-  std::exception_ptr present_error_;  // a failed present on the thread, rethrown on the caller's
+  std::exception_ptr present_error_;  ///< a failed present on the thread, rethrown on the caller's
 };
 
 }  // namespace hdeform::engine

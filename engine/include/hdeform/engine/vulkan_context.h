@@ -1,7 +1,8 @@
 #pragma once
-// The Vulkan instance, the chosen device and its graphics queue, plus the small helpers every
-// part of the engine needs (buffers, images, one-off command submission). Plain structs with
-// create/destroy pairs; the context owns only what it creates.
+/// @file
+/// The Vulkan instance, the chosen device and its graphics queue, plus the small helpers every
+/// part of the engine needs (buffers, images, one-off command submission). Plain structs with
+/// create/destroy pairs; the context owns only what it creates.
 #include <vulkan/vulkan.h>
 
 #include <atomic>
@@ -13,28 +14,28 @@
 
 namespace hdeform::engine {
 
-// Rendering could not start or failed (no device, out of memory, device lost). The message says
-// what to do where it can.
+/// Rendering could not start or failed (no device, out of memory, device lost). The message says
+/// what to do where it can.
 class RenderError : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
 };
 
-// Throws RenderError naming the call when a Vulkan call fails.
+/// Throws RenderError naming the call when a Vulkan call fails.
 void check(VkResult result, const char* what);
 
 struct ContextOptions {
-  // Which device: empty for automatic (discrete GPU, then integrated, virtual, then a CPU device
-  // such as lavapipe), "gpu", "cpu", a device index, or part of a device's name. When empty,
-  // the environment variable HDEFORM_VULKAN_DEVICE is used.
+  /// Which device: empty for automatic (discrete GPU, then integrated, virtual, then a CPU device
+  /// such as lavapipe), "gpu", "cpu", a device index, or part of a device's name. When empty,
+  /// the environment variable HDEFORM_VULKAN_DEVICE is used.
   std::string device;
-  // Khronos validation layer, messages counted; also enabled by HDEFORM_VALIDATION=1.
+  /// Khronos validation layer, messages counted; also enabled by HDEFORM_VALIDATION=1.
   bool validation = false;
-  // Instance extensions a window system needs (from GLFW).
+  /// Instance extensions a window system needs (from GLFW).
   std::vector<std::string> instance_extensions;
-  // Creates the window surface once the instance exists; the chosen device must present to it.
+  /// Creates the window surface once the instance exists; the chosen device must present to it.
   std::function<VkSurfaceKHR(VkInstance)> create_surface;
-  // Print the chosen device on stderr.
+  /// Print the chosen device on stderr.
   bool announce = true;
 };
 
@@ -42,7 +43,7 @@ struct Buffer {
   VkBuffer buffer = VK_NULL_HANDLE;
   VkDeviceMemory memory = VK_NULL_HANDLE;
   VkDeviceSize size = 0;
-  void* mapped = nullptr;  // host-visible buffers stay mapped
+  void* mapped = nullptr;  ///< host-visible buffers stay mapped
 };
 
 struct Image {
@@ -64,8 +65,8 @@ class VulkanContext {
   VkQueue queue() const { return queue_; }
   uint32_t queue_family() const { return queue_family_; }
   VkCommandPool command_pool() const { return command_pool_; }  // for the thread that renders
-  // Held around every submission and presentation: a queue must not be used from two threads at
-  // once, and the swapchain may present from its own thread.
+  /// Held around every submission and presentation: a queue must not be used from two threads at
+  /// once, and the swapchain may present from its own thread.
   std::mutex& queue_mutex() const { return queue_mutex_; }
   VkSurfaceKHR surface() const { return surface_; }
   const VkPhysicalDeviceProperties& properties() const { return properties_; }
@@ -74,23 +75,23 @@ class VulkanContext {
   bool validation_enabled() const { return messenger_ != VK_NULL_HANDLE; }
   bool has_timeline_semaphores() const { return timeline_semaphores_; }
 
-  // Validation messages of severity warning or error since creation (0 without validation).
+  /// Validation messages of severity warning or error since creation (0 without validation).
   std::size_t validation_message_count() const { return validation_messages_.load(); }
   std::vector<std::string> validation_messages() const;
 
-  // The largest sample count ≤ wanted that colour and depth attachments both support.
+  /// The largest sample count ≤ wanted that colour and depth attachments both support.
   VkSampleCountFlagBits supported_samples(int wanted) const;
-  // Multisampling for interactive frames: 4 on a GPU; 1 on a CPU device, where lavapipe's 4×
-  // measured 3.3 times the frame time (pictures written to files keep 4×).
+  /// Multisampling for interactive frames: 4 on a GPU; 1 on a CPU device, where lavapipe's 4×
+  /// measured 3.3 times the frame time (pictures written to files keep 4×).
   int interactive_samples() const { return is_cpu_device() ? 1 : 4; }
 
-  Buffer create_buffer(VkDeviceSize size, VkBufferUsageFlags usage) const;  // host-visible, coherent, mapped
+  Buffer create_buffer(VkDeviceSize size, VkBufferUsageFlags usage) const;  ///< host-visible, coherent, mapped
   void destroy(Buffer& buffer) const;
   Image create_image(uint32_t width, uint32_t height, VkFormat format, VkImageUsageFlags usage, VkSampleCountFlagBits samples,
                      VkImageAspectFlags aspect) const;
   void destroy(Image& image) const;
 
-  // Records with `record`, submits, waits.
+  /// Records with `record`, submits, waits.
   void submit_and_wait(const std::function<void(VkCommandBuffer)>& record) const;
 
  private:
