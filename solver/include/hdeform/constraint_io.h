@@ -22,6 +22,7 @@ struct VertexLabels {
   std::vector<int> deformable;  ///< label 1
   std::vector<int> handle;      ///< label 2
 };
+/// Per-vertex Botsch–Sorkine labels (0 fixed, 1 deformable, 2 handle) from a .sel file of `vertex_count` lines.
 VertexLabels read_vertex_labels(const std::filesystem::path& path, Eigen::Index vertex_count);
 
 /// A handle transform, one of

@@ -11,6 +11,7 @@
 
 namespace hdeform {
 
+/// What a vertex is in an edit: solved for, held at rest (a sink), or moved by a handle (a source).
 enum class VertexRole : std::uint8_t { Free, Fixed, Handle };
 
 /// What the user asked for. Indices are 0-based vertex ids.
@@ -36,7 +37,9 @@ struct VertexPartition {
   std::size_t unreferenced_vertices = 0;
   std::vector<std::string> warnings;
 
+  /// The number of vertices with that role.
   std::size_t count(VertexRole which) const;
+  /// The number of handles (the largest handle index plus one).
   std::size_t handle_count() const;
 };
 

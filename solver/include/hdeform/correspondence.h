@@ -12,6 +12,7 @@
 
 namespace hdeform {
 
+/// The matching's result: per target triangle, its source triangle and their distance in harmonic coordinates.
 struct TriangleMatch {
   std::vector<int> source;        ///< per target triangle: the matched source triangle
   std::vector<double> distance;   ///< ... and the distance between their coordinates

@@ -14,6 +14,7 @@
 
 namespace hdeform {
 
+/// A rotation and a uniform scale per vertex: the handle's edit spread by the harmonic field.
 struct DeformationField {
   Eigen::MatrixXd rotation;  ///< n × 4 unit quaternions, columns (w, x, y, z)
   Eigen::VectorXd scale;     ///< n
@@ -25,6 +26,7 @@ struct DeformationField {
 inline Eigen::Quaterniond blend_rotation(const HandleTransform& handle, double h) {
   return Eigen::Quaterniond(Eigen::AngleAxisd(h * handle.angle, handle.axis));
 }
+/// The scale a fraction h of the way from 1 to the handle's.
 inline double blend_scale(const HandleTransform& handle, double h) { return 1.0 + h * (handle.scale - 1.0); }
 
 /// §5, one handle: each vertex blends by its field value h.
@@ -33,6 +35,7 @@ DeformationField blend_field(const Eigen::VectorXd& h, const HandleTransform& ha
 /// Number of scalar fields interpolated for several handles: q0..q3 and s.
 inline constexpr int kInterpolatedComponents = 5;
 
+/// One vertex's interpolated (q0, q1, q2, q3, s): four quaternion components and the scale.
 using InterpolatedValue = Eigen::Matrix<double, 1, kInterpolatedComponents>;
 
 /// The rotation of interpolated components (q0..q3 normalised; the identity where they vanish).
@@ -58,12 +61,13 @@ struct AxialMaps {
   std::vector<Eigen::Vector3d> coefficients;  ///< (α, β, γ) per triangle
   std::vector<Eigen::Vector2d> angle_table;   ///< scratch: (cos, sin) at the table's angles
 
+  /// Triangle `triangle`'s map as a 3×3 matrix (the rotation about `axis` and the scale its coefficients give).
   Eigen::Matrix3d matrix(std::size_t triangle) const;
 };
 
 /// T_t = s_t R_t at each triangle's barycenter, where a linear field takes the mean of its corners.
 /// One handle: from the barycentric field value h_t (in [0, 1]). cos and sin of h_t·θ come from a
-/// table over [0, θ] plus a short Taylor step: within a few ulp of std::cos/std::sin, several
+/// table over [0, θ] plus a short Taylor step: within a few ulp of `std::cos` and `std::sin`, several
 /// times faster. Allocation-free once the table has grown to the largest angle used.
 void sample_blend_maps(const Eigen::VectorXd& triangle_h, const HandleTransform& handle, AxialMaps& maps);
 /// Several handles: from the interpolated components at the corners (n × 5, row-major: one row

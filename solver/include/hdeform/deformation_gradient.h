@@ -31,6 +31,7 @@ struct RotationScale {
   Eigen::Quaterniond rotation = Eigen::Quaterniond::Identity();
   double scale = 1.0;
 };
+/// A deformation split by polar decomposition: its rotation (a unit quaternion) and its uniform scale.
 RotationScale rotation_and_scale(const Eigen::Matrix3d& deformation);
 
 }  // namespace hdeform

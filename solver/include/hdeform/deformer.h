@@ -35,7 +35,9 @@ enum class Resolution {
   Exact,            ///< every vertex an unknown of the solves
   Multiresolution,  ///< the solves on a base of base_vertices, the detail carried
 };
+/// The resolution's name: "automatic", "exact", "multiresolution".
 std::string_view to_string(Resolution resolution);
+/// The resolution named by `name` (as to_string spells it), or nullopt.
 std::optional<Resolution> parse_resolution(std::string_view name);
 /// What Automatic means for a mesh of `vertices` vertices (Exact or Multiresolution).
 Resolution resolution_for(Eigen::Index vertices, Resolution asked = Resolution::Automatic);
@@ -43,6 +45,7 @@ Resolution resolution_for(Eigen::Index vertices, Resolution asked = Resolution::
 /// Called from the constructing thread before each set-up stage, with a line for the user.
 using ProgressCallback = std::function<void(std::string_view stage)>;
 
+/// How a Deformer factors, solves and refines; the defaults are what the editor and the commands use.
 struct DeformerOptions {
   SolverBackend backend = default_backend();
   SolveSchedule schedule = default_schedule();
@@ -52,6 +55,7 @@ struct DeformerOptions {
   /// Set up the as-rigid-as-possible refinement with the rest (else at the first refine()).
   bool prepare_refinement = false;
 
+  /// The defaults with this backend and schedule.
   static DeformerOptions solver(SolverBackend backend, SolveSchedule schedule = default_schedule()) {
     DeformerOptions options;
     options.backend = backend;
@@ -73,7 +77,8 @@ struct UpdateTimings {
   double total_ms = 0.0;    ///< the whole update, as the caller waits for it
 };
 
-struct DeformerTimings {  // set-up, milliseconds
+/// Where a Deformer's set-up time went, milliseconds per stage.
+struct DeformerTimings {
   double laplacian_ms = 0.0;  ///< weights, inspection, partition and Laplacian (the partition alone when reused)
   double factor_ms = 0.0;  ///< analyse + numeric factorization of L_ff
   double field_ms = 0.0;   ///< harmonic field solve
@@ -108,6 +113,7 @@ struct MeshOperators {
   /// Why Automatic stayed exact on a mesh of multiresolution's size (the base lost the topology).
   std::string exact_because;
 
+  /// Exact, or Multiresolution when the solves run on a base mesh.
   Resolution resolution() const { return multiresolution ? Resolution::Multiresolution : Resolution::Exact; }
 
   /// Runs validate_mesh. `resolution` as in DeformerOptions (Automatic: by the mesh's size).
@@ -118,6 +124,7 @@ struct MeshOperators {
   /// The analysis of the last L_ff factored with these operators, for the next set-up whose free
   /// vertices are the same (thread-safe).
   std::shared_ptr<const SparseCholesky::Analysis> last_analysis() const;
+  /// Records `analysis` as the last one (thread-safe); see last_analysis().
   void keep_analysis(std::shared_ptr<const SparseCholesky::Analysis> analysis) const;
 
  private:
@@ -125,10 +132,17 @@ struct MeshOperators {
   mutable std::shared_ptr<const SparseCholesky::Analysis> last_analysis_;
 };
 
+/// The paper's editing engine for one mesh and one selection: set up once, then `deform` per drag
+/// event (the paper's update) and `refine` after it (as-rigid-as-possible). Not thread-safe: one
+/// caller at a time (UpdatePipeline runs it off the caller's thread).
 class Deformer {
  public:
   // Throws InputError for invalid constraints (no handle, bad indices) and SolveError when the
   // factorization fails.
+  /// Sets everything up: validates the mesh, builds (or takes from `options`) the operators,
+  /// factors L_ff and solves the harmonic field; `progress` is called before each stage. Throws
+  /// InputError for bad constraints (a handle without a sink, indices out of range) and SolveError
+  /// when a factorization fails.
   Deformer(Mesh rest, EditConstraints constraints, DeformerOptions options = {}, const ProgressCallback& progress = {});
   /// The same, with the operators of this very mesh computed before (MeshOperators::of(rest), or
   /// another Deformer's operators() on it): a re-selection. Throws std::invalid_argument when their
@@ -140,10 +154,15 @@ class Deformer {
   Deformer(const Deformer&) = delete;
   Deformer& operator=(const Deformer&) = delete;
 
+  /// The rest mesh, as given.
   const Mesh& rest() const { return rest_; }
+  /// The vertex classes, as given.
   const EditConstraints& constraints() const { return constraints_; }
+  /// Each vertex's role and handle, with stray components fixed.
   const VertexPartition& partition() const { return partition_; }
+  /// The legal but troublesome geometry found in the mesh (for warnings).
   const MeshInspection& inspection() const { return operators_->inspection; }
+  /// The operators of the rest mesh, to share with the next Deformer on the same mesh.
   const std::shared_ptr<const MeshOperators>& operators() const { return operators_; }
   /// Multiresolution or Exact: what this deformer solves on.
   Resolution resolution() const { return operators_->resolution(); }
@@ -151,14 +170,18 @@ class Deformer {
   const Mesh& solved_mesh() const { return base_ ? base_->rest() : rest_; }
   /// The system of the mesh the solves run on (the base's with multiresolution).
   const DirichletSystem& system() const { return base_ ? base_->system() : *system_; }
+  /// The options it was made with.
   const DeformerOptions& options() const { return options_; }
+  /// Where the set-up's time went.
   const DeformerTimings& timings() const { return timings_; }
   /// The harmonic field h: 1 at every handle vertex, 0 at fixed vertices.
   const Eigen::VectorXd& field() const { return field_; }
+  /// The number of handles; deform() takes one transform each.
   std::size_t handle_count() const { return constraints_.handles.size(); }
   /// Mesh, partition and handle-shape findings the user should see.
   std::vector<std::string> warnings() const;
 
+  /// Where the last update's time went.
   const UpdateTimings& last_update() const { return last_update_; }
 
   /// Deformed positions (n×3, resized if needed) for one transform per handle: one handle blends
@@ -176,9 +199,13 @@ class Deformer {
   int refine(Eigen::MatrixXd& positions, int max_iterations);
   /// ... one iteration at a time, for a caller that shows each (false once converged).
   bool refine_once(Eigen::MatrixXd& positions) { return refine(positions, 1) == 1 && !refinement_status().converged; }
+  /// Where the last refine() stands: iterations, energies, converged or settled.
   const RefinementStatus& refinement_status() const;
+  /// Where the last refinement iteration's time went.
   const RefinementTimings& refinement_timings() const;
+  /// Changes the refinement's tolerance, settle test, acceleration and cap for the next refine().
   void set_refinement_options(const RefinementOptions& options);
+  /// The refinement options now in force.
   const RefinementOptions& refinement_options() const { return options_.refinement; }
 
  private:

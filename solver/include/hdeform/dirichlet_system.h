@@ -16,8 +16,11 @@
 
 namespace hdeform {
 
+/// L_ff X_f = S_f − L_fc X_c for one partition: L_ff factored once, its solves and the coupling
+/// to the constrained vertices, for every right-hand side of an edit.
 class DirichletSystem {
  public:
+  /// One L_fc entry: the constrained vertex a free row couples to, and the weight.
   struct Coupling {
     int vertex;     ///< a constrained vertex
     double weight;  ///< L_fc entry
@@ -30,14 +33,18 @@ class DirichletSystem {
   DirichletSystem(const Eigen::SparseMatrix<double>& laplacian, const VertexPartition& partition, SolverBackend backend,
                   std::span<const int> vertex_rank = {}, const std::shared_ptr<const SparseCholesky::Analysis>& reuse = nullptr);
 
+  /// The factorization of L_ff.
   const SparseCholesky& factor() const { return factor_; }
   /// Time spent analysing and factoring L_ff, milliseconds.
   double factor_ms() const { return factor_ms_; }
+  /// The number of free vertices (rows of L_ff).
   Eigen::Index free_count() const { return static_cast<Eigen::Index>(vertex_of_row_.size()); }
+  /// The number of vertices of the mesh.
   Eigen::Index vertex_count() const { return static_cast<Eigen::Index>(row_of_vertex_.size()); }
 
   /// Factor-order row of a free vertex, −1 for a constrained one; and the inverse map.
   const std::vector<int>& row_of_vertex() const { return row_of_vertex_; }
+  /// The free vertex of each factor-order row.
   const std::vector<int>& vertex_of_row() const { return vertex_of_row_; }
 
   /// The L_fc entries of one factor-order row.

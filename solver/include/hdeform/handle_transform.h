@@ -13,7 +13,10 @@
 
 namespace hdeform {
 
+/// A handle's edit: an affine map of the handle's vertices and its split into a rotation (axis and
+/// angle) and a uniform scale, which the field spreads. Make one with from_affine() or about_pivot().
 struct HandleTransform {
+  /// Affine: a matrix given as is; Pose: a twist, whose angle may exceed a turn.
   enum class Kind { Affine, Pose };
 
   Kind kind = Kind::Affine;
@@ -26,6 +29,7 @@ struct HandleTransform {
   Eigen::Vector3d pivot = Eigen::Vector3d::Zero();  ///< pose: the point the turn and scale keep
   Eigen::Vector3d shift = Eigen::Vector3d::Zero();  ///< pose: the translation applied after them
 
+  /// The edit that moves nothing.
   static HandleTransform identity() { return {}; }
 
   /// From a 3×4 matrix [A | t]. Throws InputError when A is not finite, singular, or a reflection.
@@ -41,6 +45,7 @@ struct HandleTransform {
   /// keeps its pivot. Returns this transform unchanged at f = 1.
   HandleTransform at_fraction(double fraction) const;
 
+  /// The handle's target for a rest position: linear · p + translation.
   Eigen::Vector3d apply(const Eigen::Vector3d& point) const { return linear * point + translation; }
   /// Moves nothing: every point stays (a pose of whole turns with no shift or scale counts as
   /// moving, since the field turns the region between).

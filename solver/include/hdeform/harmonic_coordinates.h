@@ -25,9 +25,12 @@ using CoordinateRows = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eig
 class VertexCoordinates {
  public:
   // `partition` must have exactly the markers as its fixed vertices, plus any stray vertices.
+  /// Solves the k coordinate columns against `system` (whose fixed vertices are the markers).
   VertexCoordinates(const DirichletSystem& system, const VertexPartition& partition, std::span<const int> markers);
 
+  /// The number of vertices of the mesh.
   Eigen::Index vertex_count() const { return static_cast<Eigen::Index>(row_of_vertex_.size()); }
+  /// k, the number of markers.
   int columns() const { return static_cast<int>(free_.cols()); }
   /// Vertex v's coordinates; `buffer` (columns() doubles) holds them for a constrained vertex.
   const double* row(int v, double* buffer) const;
@@ -47,6 +50,7 @@ Eigen::MatrixXd harmonic_coordinates(const DirichletSystem& system, const Vertex
 /// The triangles' coordinates (m × k): the same values as barycenter_values(harmonic_coordinates(...),
 /// triangles), bit for bit, without the n × k matrix between.
 CoordinateRows triangle_coordinates(const VertexCoordinates& coordinates, const Eigen::MatrixXi& triangles);
+/// The same, solving the coordinates first.
 CoordinateRows triangle_coordinates(const DirichletSystem& system, const VertexPartition& partition, std::span<const int> markers,
                                     const Eigen::MatrixXi& triangles);
 

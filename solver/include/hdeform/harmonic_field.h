@@ -12,6 +12,7 @@
 
 namespace hdeform {
 
+/// The field h (one value per vertex): 1 at the partition's handle vertices, 0 at its fixed ones, harmonic between.
 Eigen::VectorXd harmonic_field(const DirichletSystem& system, const VertexPartition& partition);
 
 }  // namespace hdeform

@@ -25,18 +25,23 @@ enum class ElementKind : std::uint8_t {
 /// are the limits dot_k / max|dot|). Clamping angles one by one would make needles indefinite.
 inline constexpr double kMaxCotangent = 1e4;
 
+/// The cotangent weight of every edge of every triangle, with the elements that had to be bounded
+/// or left out counted.
 struct CotangentWeights {
   /// half_cotangent(t, k) = ½ cot of the angle at corner k: the weight of the edge opposite k.
   Eigen::MatrixXd half_cotangent;
   std::vector<ElementKind> kind;
 
+  /// How many triangles were of that kind.
   std::size_t count(ElementKind which) const;
 };
 
+/// The weights of a mesh (validate_mesh first; throws InputError for a bad mesh).
 CotangentWeights cotangent_weights(const Mesh& mesh);
 
 /// n×n sparse Laplacian assembled from per-triangle weights (Ignored triangles contribute nothing).
 Eigen::SparseMatrix<double> cotangent_laplacian(const Mesh& mesh, const CotangentWeights& weights);
+/// The cotangent Laplacian of a mesh, both triangles stored (positive semidefinite).
 Eigen::SparseMatrix<double> cotangent_laplacian(const Mesh& mesh);
 
 }  // namespace hdeform

@@ -10,10 +10,12 @@
 
 namespace hdeform {
 
+/// Marker pairs: source[i] on one mesh corresponds to target[i] on the other.
 struct MarkerPairs {
   std::vector<int> source;  ///< vertex on the source (reference) mesh, per marker
   std::vector<int> target;  ///< the corresponding vertex on the target mesh
 
+  /// The number of pairs.
   std::size_t size() const { return source.size(); }
 };
 
@@ -21,6 +23,7 @@ struct MarkerPairs {
 /// needs 3 ≤ n ≤ k).
 inline constexpr std::size_t kMinimumMarkers = 3;
 
+/// Which column of a marker file holds the source's vertices.
 enum class SourceColumn { First, Second };
 
 /// Throws InputError naming the file and line for: a line without exactly two indices, a

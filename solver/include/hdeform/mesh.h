@@ -10,7 +10,9 @@ struct Mesh {
   Eigen::MatrixXd positions;
   Eigen::MatrixXi triangles;
 
+  /// n, the number of vertices.
   Eigen::Index vertex_count() const { return positions.rows(); }
+  /// m, the number of triangles.
   Eigen::Index triangle_count() const { return triangles.rows(); }
 };
 
@@ -19,6 +21,7 @@ struct Mesh {
 /// vertex or triangle. Every public entry point that takes a mesh from outside runs it; the
 /// algorithms inside trust its result.
 void validate_mesh(const Mesh& mesh, std::string_view name = "mesh");
+/// The same check on the two arrays of a mesh-to-be.
 void validate_mesh(const Eigen::MatrixXd& positions, const Eigen::MatrixXi& triangles, std::string_view name = "mesh");
 /// Its triangle half, for those who hold triangles and a vertex count (the renderer).
 void validate_triangles(const Eigen::MatrixXi& triangles, Eigen::Index vertex_count, std::string_view name = "mesh");

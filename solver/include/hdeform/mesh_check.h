@@ -10,6 +10,7 @@
 
 namespace hdeform {
 
+/// What the inspection of a mesh found: counts of each troublesome case, for warnings.
 struct MeshInspection {
   std::size_t degenerate_triangles = 0;  ///< zero-area or needle: bounded weights
   std::size_t ignored_triangles = 0;     ///< duplicates and triangles with a repeated vertex
@@ -24,6 +25,7 @@ struct MeshInspection {
   std::vector<std::string> warnings() const;
 };
 
+/// Inspects a mesh with its weights (degenerate, duplicated and non-manifold elements, stray parts).
 MeshInspection inspect_mesh(const Mesh& mesh, const CotangentWeights& weights);
 
 }  // namespace hdeform

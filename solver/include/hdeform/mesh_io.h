@@ -40,8 +40,11 @@ void write_obj(const std::filesystem::path& path, const Mesh& mesh);
 /// ones too) and polygons are triangulated as in OBJ.
 /// Throws InputError "<file>[:<line>]: <problem>" (a face index out of range names the face and corner).
 enum class MeshFormat { Obj, Ply, Off, Stl };
+/// The extensions read_mesh knows, for messages.
 inline constexpr std::string_view kReadableMeshFormats = ".obj, .ply, .off or .stl";
+/// The format a path's extension names (case-insensitive), or nullopt.
 std::optional<MeshFormat> mesh_format_of(const std::filesystem::path& path);
+/// Reads a mesh by its extension: OBJ, PLY, OFF or STL. Throws InputError naming the file and line.
 Mesh read_mesh(const std::filesystem::path& path);
 /// The same for content already in memory, the format from `path`'s extension.
 Mesh parse_mesh(const std::filesystem::path& path, std::string_view content);

@@ -32,12 +32,17 @@ struct MeshTopology {
   Eigen::Index components = 0;       ///< of referenced vertices, joined by triangles
   Eigen::Index boundary_edges = 0;   ///< in one triangle
   Eigen::Index nonmanifold_edges = 0;  ///< in more than two
+  /// V − E + F.
   Eigen::Index euler_characteristic() const { return vertices - edges + triangles; }
+  /// Whether two meshes have the same Euler characteristic, components, boundary edges and
+  /// non-manifold edges (what a base must keep).
   bool same_as(const MeshTopology& other) const;
   std::string describe() const;  ///< "V vertices, χ = …, k components, b boundary edges"
 };
+/// The topology of a mesh: its counts, components, boundary and non-manifold edges.
 MeshTopology mesh_topology(const Mesh& mesh);
 
+/// A base mesh: a simplified copy whose vertices are vertices of the fine mesh.
 struct BaseMesh {
   Mesh mesh;                     ///< positions: those of its fine vertices, bit for bit
   std::vector<int> fine_vertex;  ///< base vertex → its fine vertex, ascending
@@ -59,9 +64,13 @@ BaseMesh simplify_to_base(const Mesh& fine, Eigen::Index target_vertices);
 class DetailEncoding {
  public:
   DetailEncoding() = default;
+  /// Encodes every fine vertex against the base: its foot on a base triangle and its detail vector
+  /// in that triangle's frame.
   DetailEncoding(const Mesh& fine, const BaseMesh& base);
 
+  /// The number of fine vertices.
   Eigen::Index fine_count() const { return static_cast<Eigen::Index>(foot_triangle_.size()); }
+  /// The number of base vertices.
   Eigen::Index base_count() const { return base_count_; }
 
   /// The fine mesh on a deformed base (base_positions: the base's vertex count × 3): each fine

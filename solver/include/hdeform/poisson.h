@@ -18,9 +18,12 @@
 
 namespace hdeform {
 
+/// Builds the Poisson right-hand side of per-triangle maps for one partition, in parallel, in a
+/// fixed order per row (the same bits on any number of threads). Made once per selection.
 class PoissonAssembler {
  public:
   // Keeps a reference to `system`, which must outlive the assembler.
+  /// Precomputes the rest gradients and the rows' gather lists for `system`'s free vertices.
   PoissonAssembler(const Mesh& rest, const CotangentWeights& weights, const DirichletSystem& system);
 
   /// Writes b_f − L_fc x_c into columns first_column .. first_column+2 of `rhs` (factor order).

@@ -28,6 +28,7 @@ struct RefinementOptions {
   int max_iterations = 1000; ///< the cap of a run "until converged"
 };
 
+/// The most earlier iterations the accelerator may mix.
 inline constexpr int kMaxRefinementHistory = 8;
 /// The editor's settle test: a tenth of a pixel where the default view shows the bounding box's
 /// diagonal 700 pixels long (a 1200×700 window).
@@ -40,6 +41,7 @@ inline constexpr double kEditorSettle = 1e-4;
 /// path the drag took.
 enum class RefinementStart { FromPapersResult, FromLastEdit };
 
+/// Where a refinement run stands: its iterations, energies and why it stopped.
 struct RefinementStatus {
   int iterations = 0;             ///< since the last deform()
   double energy = 0.0;            ///< after the last iteration
@@ -54,7 +56,8 @@ struct RefinementStatus {
   bool started_from_paper = false;  ///< a start from the last edit did worse than the paper's result and was dropped
 };
 
-struct RefinementTimings {  // milliseconds, the last iteration
+/// Where the last refinement iteration's time went, milliseconds per stage.
+struct RefinementTimings {
   double rhs_ms = 0.0;           ///< right-hand side from the rotations
   double solve_ms = 0.0;         ///< back-substitution
   double acceleration_ms = 0.0;  ///< Anderson mixing

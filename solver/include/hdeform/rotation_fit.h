@@ -17,6 +17,7 @@
 
 namespace hdeform {
 
+/// A fitted rotation and how it was found (Newton steps, or the SVD where Newton's model failed).
 struct RotationFit {
   Eigen::Matrix3d rotation;
   double objective = 0.0;  ///< tr(Rᵀ A)

@@ -12,6 +12,7 @@
 
 namespace hdeform {
 
+/// The built-in shapes.
 enum class ShapeKind {
   Cactus,    ///< a trunk with two arms; demo: the paper's Figure 1 (bend the left arm)
   Bar,       ///< a square bar; demo: twist the top end
@@ -19,7 +20,9 @@ enum class ShapeKind {
   Sphere,    ///< a sphere from a subdivided cube; demo: pull the top cap
 };
 
+/// The shape named `name` ("cactus", "bar", "cylinder", "sphere"), or nullopt.
 std::optional<ShapeKind> parse_shape(std::string_view name);
+/// The shape's name.
 std::string_view to_string(ShapeKind shape);
 
 /// The demo edit: one source and one sink region and the handle's transform.
@@ -34,6 +37,7 @@ struct Shape {
 /// 0.75 r²: r = 450, 600, 560, 1160 give a million triangles or more).
 Shape make_shape(ShapeKind shape, int resolution);
 
+/// Segments around, when a caller does not say.
 inline constexpr int kDefaultShapeResolution = 48;
 
 }  // namespace hdeform

@@ -21,15 +21,20 @@
 
 namespace hdeform {
 
+/// Which code computes L (the solves always run through the one kernel).
 enum class SolverBackend {
   Tree,     ///< ours: elimination_ranks (or a given) ordering, rows of L computed in parallel over elimination subtrees
   Eigen,    ///< Eigen SimplicialLLT with AMD ordering
   Cholmod,  ///< CHOLMOD supernodal LLT through Eigen's CholmodSupport
 };
+/// Every backend, in the order the benchmarks report them.
 inline constexpr SolverBackend kSolverBackends[] = {SolverBackend::Tree, SolverBackend::Eigen, SolverBackend::Cholmod};
 
+/// The backend's name: "tree", "eigen", "cholmod".
 std::string_view to_string(SolverBackend backend);
+/// The backend named `name`, or nullopt.
 std::optional<SolverBackend> parse_backend(std::string_view name);
+/// Whether this build has the backend (CHOLMOD is optional).
 bool backend_available(SolverBackend backend);
 /// The backend measured faster on buddha-206k (see README, Performance).
 SolverBackend default_backend();
@@ -45,6 +50,7 @@ enum class EliminationOrder {
 /// at 411K (the Buddha subdivided once) 23% of them, 30% of the factorization and 25% of each
 /// drag's solve (README, Performance).
 inline constexpr Eigen::Index kNestedDissectionFrom = 250'000;
+/// The order's name: "automatic", "minimum degree", "nested dissection".
 std::string_view to_string(EliminationOrder order);
 /// What Automatic means for a matrix of `unknowns` rows.
 EliminationOrder elimination_order_for(Eigen::Index unknowns);
@@ -53,8 +59,12 @@ EliminationOrder elimination_order_for(Eigen::Index unknowns);
 /// step that eliminates unknown i. Deterministic: the same pattern always gives the same ranks.
 std::vector<int> elimination_ranks(const Eigen::SparseMatrix<double>& matrix, EliminationOrder order = EliminationOrder::Automatic);
 
+/// A sparse Cholesky factorization P A Pᵀ = L Lᵀ of a symmetric positive definite matrix, kept for
+/// many solves: factor() once, then solve_block() per right-hand side block (allocation-free,
+/// parallel over elimination subtrees, the same bits on any number of threads).
 class SparseCholesky {
  public:
+  /// An empty factorization; factor() fills it.
   SparseCholesky();
   ~SparseCholesky();
   SparseCholesky(SparseCholesky&&) noexcept;
@@ -75,11 +85,16 @@ class SparseCholesky {
               const std::shared_ptr<const Analysis>& reuse = nullptr);
   /// This factorization's analysis, for reuse; null unless the backend is Tree.
   std::shared_ptr<const Analysis> analysis() const;
+  /// Whether the last factor() took the given analysis instead of analysing.
   bool reused_analysis() const;
 
+  /// Whether nothing has been factored.
   bool empty() const { return size() == 0; }
+  /// The number of unknowns.
   Eigen::Index size() const;
+  /// The backend that computed L.
   SolverBackend backend() const { return backend_; }
+  /// The nonzeros of L.
   Eigen::Index factor_nonzeros() const;
 
   /// factor_row()[i]: the row of unknown i in factor order.
@@ -112,7 +127,9 @@ enum class SolveSchedule {
   ThreadGroups,  ///< as many groups as threads, columns split evenly
 };
 
+/// The schedule's name: "blocked", "per-column", "thread-groups".
 std::string_view to_string(SolveSchedule schedule);
+/// The schedule named `name`, or nullopt.
 std::optional<SolveSchedule> parse_schedule(std::string_view name);
 /// The schedule measured fastest for the drag update (see README, Performance).
 SolveSchedule default_schedule();
@@ -124,15 +141,20 @@ class ColumnBlocks {
   /// `threads` only matters for ThreadGroups (0: the current TBB concurrency).
   ColumnBlocks(Eigen::Index rows, int columns, SolveSchedule schedule, int threads = 0);
 
+  /// The number of rows (unknowns).
   Eigen::Index rows() const { return rows_; }
+  /// The number of columns.
   int columns() const { return static_cast<int>(group_of_column_.size()); }
+  /// The number of groups, each solved by one pass over the factor.
   int groups() const { return static_cast<int>(groups_.size()); }
 
+  /// The value of a row (in factor order) in a column.
   double& at(Eigen::Index row, int column) {
     const auto& slot = group_of_column_[static_cast<std::size_t>(column)];
     auto& group = groups_[static_cast<std::size_t>(slot.group)];
     return group.values[static_cast<std::size_t>(row * group.columns + slot.offset)];
   }
+  /// The value of a row (in factor order) in a column.
   double at(Eigen::Index row, int column) const { return const_cast<ColumnBlocks*>(this)->at(row, column); }
 
   /// Solves one group against the factor (one pass over it for all the group's columns).

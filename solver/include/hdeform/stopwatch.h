@@ -6,12 +6,16 @@
 
 namespace hdeform {
 
+/// The clock every figure is measured with.
 using SteadyClock = std::chrono::steady_clock;
 
+/// Milliseconds from one time point to another.
 inline double milliseconds_between(SteadyClock::time_point from, SteadyClock::time_point to) {
   return std::chrono::duration<double, std::milli>(to - from).count();
 }
+/// Milliseconds since `start`.
 inline double milliseconds_since(SteadyClock::time_point start) { return milliseconds_between(start, SteadyClock::now()); }
+/// Seconds since `start`.
 inline double seconds_since(SteadyClock::time_point start) { return milliseconds_since(start) / 1000.0; }
 
 }  // namespace hdeform

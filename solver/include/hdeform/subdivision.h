@@ -11,6 +11,7 @@
 
 namespace hdeform {
 
+/// A subdivided mesh and, per new vertex, the two vertices whose edge it splits.
 struct Subdivision {
   Mesh mesh;  ///< the original vertices first, unchanged, then one per edge
   /// Per new vertex (mesh index original_vertices + i): the edge's two ends, lower index first.

@@ -22,6 +22,7 @@ std::int64_t now_ns();  ///< steady clock, nanoseconds
 void complete(const char* name, const char* category, std::int64_t begin_ns, std::int64_t end_ns, std::int64_t arg);
 }  // namespace detail
 
+/// Whether a recording is on (one relaxed atomic load).
 inline bool enabled() { return detail::enabled.load(std::memory_order_relaxed); }
 
 /// Starts a recording (discarding any earlier one); each thread keeps up to `events_per_thread`.
@@ -29,6 +30,7 @@ void start(std::size_t events_per_thread = std::size_t{1} << 20);
 /// Stops recording; what was recorded stays until write() or the next start(), and resume()
 /// goes on adding to it.
 void stop();
+/// Goes on recording after stop(), adding to what was recorded.
 void resume();
 /// Writes what was recorded, atomically (InputError naming the file when it cannot). Safe while
 /// other threads still record: it takes the events published so far.
@@ -37,12 +39,14 @@ void write(const std::filesystem::path& path);
 /// Calls into the recorder since the program started (a test checks that tracing off makes none)
 /// and the events held.
 std::uint64_t recorder_calls();
+/// The events recorded so far.
 std::size_t recorded_events();
 
 /// A complete event over this object's lifetime, on the calling thread; `arg` (if not negative)
 /// appears as args.n (a subtree, an iteration, a request number).
 class Scope {
  public:
+  /// Starts the event (when recording); it ends when the object is destroyed.
   Scope(const char* name, const char* category, std::int64_t arg = -1) {
     if (enabled()) {
       name_ = name;
@@ -69,10 +73,12 @@ class Scope {
 void complete(const char* name, const char* category, std::int64_t begin_ns, std::int64_t end_ns, const char* track = nullptr);
 /// A value over time (memory, requests waiting), and a moment (an input event, a presentation).
 void counter(const char* name, double value);
+/// Records a moment on the calling thread.
 void instant(const char* name, const char* category);
 /// Names the calling thread in the timeline ("solver", "presenter").
 void name_thread(const char* name);
 
+/// The recorder's clock: steady, nanoseconds.
 inline std::int64_t now_ns() { return detail::now_ns(); }
 
 }  // namespace hdeform::trace

@@ -36,8 +36,11 @@
 
 namespace hdeform {
 
+/// Deformation transfer's two methods: matched triangles (§6) or interpolated marker deformations (§7).
 enum class TransferMethod { Correspondence, Interpolation };
+/// The method's name: "correspondence", "interpolation".
 std::string_view to_string(TransferMethod method);
+/// The method named `name`, or nullopt.
 std::optional<TransferMethod> parse_transfer_method(std::string_view name);
 
 /// Harmonic coordinates lie in [0, 1]^k; a target triangle and its nearest source triangle are
@@ -46,6 +49,7 @@ std::optional<TransferMethod> parse_transfer_method(std::string_view name);
 /// cat's 14,410 triangles; at 0.1 it would be 517, and the recovered cat poses slightly worse).
 inline constexpr double kDefaultMismatchThreshold = 0.2;
 
+/// How a DeformationTransfer is set up.
 struct TransferOptions {
   TransferMethod method = TransferMethod::Correspondence;
   int top_n = 0;  ///< correspondence: compare only this many largest components (0: all k)
@@ -53,7 +57,8 @@ struct TransferOptions {
   SolverBackend backend = default_backend();
 };
 
-struct TransferSetupTimings {  // milliseconds
+/// Where the set-up's time went, milliseconds per stage.
+struct TransferSetupTimings {
   double source_coordinates_ms = 0.0;  ///< correspondence: Laplacian, factorization, k columns
   double target_coordinates_ms = 0.0;  ///< correspondence: the same on the target
   double matching_ms = 0.0;            ///< correspondence: nearest coordinates
@@ -63,16 +68,21 @@ struct TransferSetupTimings {  // milliseconds
   double total_ms = 0.0;
 };
 
-struct TransferPoseTimings {  // milliseconds, the last pose
+/// Where the last pose's time went, milliseconds per stage.
+struct TransferPoseTimings {
   double gradients_ms = 0.0;       ///< source deformation gradients
   double fields_ms = 0.0;          ///< interpolated fields (§7) or mismatch fill (§6)
   double reconstruction_ms = 0.0;  ///< right-hand side, solve and placement
   double total_ms = 0.0;
 };
 
+/// Copies poses of a source mesh onto a target mesh from marker pairs (paper §6, §7): set up once
+/// (coordinates, matching, factorizations), then transfer() per pose.
 class DeformationTransfer {
  public:
   // Throws InputError for markers out of range and SolveError when a factorization fails.
+  /// Sets up the transfer: checks the meshes and markers, solves the coordinates, matches the
+  /// triangles (correspondence) and factors the target's systems; `progress` before each stage.
   DeformationTransfer(Mesh source_rest, Mesh target_rest, MarkerPairs markers, TransferOptions options = {},
                       const ProgressCallback& progress = {});
   ~DeformationTransfer();
@@ -83,20 +93,28 @@ class DeformationTransfer {
   /// source's vertex positions (its rest connectivity). Throws InputError for a wrong vertex count.
   void transfer(const Eigen::MatrixXd& source_pose, Eigen::MatrixXd& target_positions);
 
+  /// The source's rest mesh.
   const Mesh& source_rest() const { return source_rest_; }
+  /// The target's rest mesh.
   const Mesh& target_rest() const { return target_rest_; }
+  /// The marker pairs.
   const MarkerPairs& markers() const { return markers_; }
+  /// The options it was made with.
   const TransferOptions& options() const { return options_; }
 
   /// Correspondence: the source triangle each target triangle takes its deformation from, and
   /// which target triangles are mismatches. Empty for interpolation.
   const TriangleMatch& match() const { return match_; }
+  /// Per target triangle: true when it had no counterpart closer than the mismatch threshold.
   const std::vector<bool>& mismatched() const { return mismatched_; }
+  /// The number of mismatched target triangles.
   std::size_t mismatch_count() const;
 
   /// Factorizations made so far: each matrix is factored once, however many poses follow.
   std::size_t factorizations() const { return factorizations_; }
+  /// Where the set-up's time went.
   const TransferSetupTimings& setup_timings() const { return setup_; }
+  /// Where the last pose's time went.
   const TransferPoseTimings& last_pose() const { return last_pose_; }
   /// Findings the user should know about (stray components, mismatches).
   const std::vector<std::string>& warnings() const { return warnings_; }

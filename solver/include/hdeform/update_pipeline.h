@@ -27,8 +27,11 @@
 
 namespace hdeform {
 
+/// Runs a Deformer's updates on a thread of its own: the newest request wins, the paper's update
+/// is published first, then refinement iterations while no newer request waits.
 class UpdatePipeline {
  public:
+  /// What the publish callback receives: the positions and what they answer.
   struct Result {
     const Eigen::MatrixXd& positions;
     std::uint64_t request;  ///< the number submit() returned for these transforms
@@ -53,6 +56,7 @@ class UpdatePipeline {
   Eigen::MatrixXd settled_positions();
   /// Refinement after each update (off at first). Turning it on refines the last result.
   void set_refinement(bool on);
+  /// Whether refinement is on.
   bool refinement() const;
   /// Refinement starts only once no request has come for this long (0 at first). On a CPU device,
   /// where iterations would take the cores the rasterizer needs, the editor waits for the input to
@@ -63,6 +67,7 @@ class UpdatePipeline {
   /// the cores the iterations need.
   void set_refinement_publication_interval(std::chrono::milliseconds interval);
 
+  /// The number of updates finished so far.
   std::uint64_t finished_updates() const;
   std::uint64_t superseded_requests() const;  ///< replaced by a newer one before they started
   /// The failure of the latest update that threw (the previous result stays published), or null.

@@ -13,10 +13,14 @@
 
 namespace hdeform::engine {
 
+/// Frames the CPU may record while the device still renders earlier ones.
 inline constexpr uint32_t kFramesInFlight = 2;
 
+/// Frames in flight: per slot a command buffer, a fence and an image-available semaphore, used
+/// round robin, with optional completion times and device timestamps per frame.
 class FrameSlots {
  public:
+  /// One frame's resources.
   struct Slot {
     uint32_t index = 0;
     VkCommandBuffer commands = VK_NULL_HANDLE;
@@ -25,11 +29,13 @@ class FrameSlots {
     std::uint64_t frame = 0;  ///< the last frame submitted from this slot
   };
 
+  /// Creates `count` slots on the context's command pool.
   FrameSlots(const VulkanContext& context, uint32_t count = kFramesInFlight);
   ~FrameSlots();
   FrameSlots(const FrameSlots&) = delete;
   FrameSlots& operator=(const FrameSlots&) = delete;
 
+  /// The number of slots.
   uint32_t count() const { return static_cast<uint32_t>(slots_.size()); }
   /// The next slot, round robin, once the GPU has finished its previous frame; recording begun.
   Slot& begin();
@@ -47,7 +53,9 @@ class FrameSlots {
     std::uint64_t frame;
     std::chrono::steady_clock::time_point time;
   };
+  /// Starts the thread that records when each submitted frame finishes (timeline semaphores).
   void enable_completion_times();
+  /// The completions recorded since the last call, oldest first.
   std::vector<Completion> take_completions();
 
   /// The device's own time for each finished frame (timestamp queries at the start and end of its
@@ -57,7 +65,9 @@ class FrameSlots {
     std::uint64_t frame;
     double milliseconds;
   };
+  /// Whether the device reports its own time per frame.
   bool has_device_times() const { return queries_ != VK_NULL_HANDLE; }
+  /// The device times recorded since the last call, in finishing order.
   std::vector<DeviceTime> take_device_times();
 
  private:

@@ -20,14 +20,19 @@ struct GeometrySnapshot {
   std::uint64_t tag = 0;      ///< the publisher's label (the editor: the request it answers)
 };
 
+/// Hands positions and normals from one writer thread (the solver) to one reader thread (the
+/// renderer) through three buffers: the writer never waits, the reader takes the newest.
 class GeometryExchange {
  public:
+  /// Three buffers for `vertex_count` vertices.
   explicit GeometryExchange(std::size_t vertex_count);
 
+  /// The number of vertices each snapshot holds.
   std::size_t vertex_count() const { return vertex_count_; }
 
   /// Writer (one thread): fill back(), then publish() it.
   GeometrySnapshot& back() { return slots_[back_]; }
+  /// Makes back() the newest snapshot (one atomic exchange) and gives the writer another buffer.
   void publish();
 
   /// Reader (one thread): the newest published snapshot (the same as last time if nothing new
@@ -49,6 +54,7 @@ class GeometryExchange {
 /// triangles in a fixed order.
 class VertexNormals {
  public:
+  /// Precomputes each vertex's incident triangles.
   VertexNormals(const Eigen::MatrixXi& triangles, Eigen::Index vertex_count);
   /// Writes positions (as floats) and unit normals into `snapshot`. Allocation-free.
   void write(const Eigen::MatrixXd& positions, GeometrySnapshot& snapshot);
@@ -63,7 +69,9 @@ class VertexNormals {
 /// What the solver thread calls after each update: positions → back buffer with normals → publish.
 class GeometryPublisher {
  public:
+  /// Writes into `exchange` the geometry of a mesh with these triangles.
   GeometryPublisher(GeometryExchange& exchange, const Eigen::MatrixXi& triangles);
+  /// Fills the back buffer with `positions` and their normals, labels it `tag`, and publishes it.
   void publish(const Eigen::MatrixXd& positions, std::uint64_t tag = 0);
 
  private:

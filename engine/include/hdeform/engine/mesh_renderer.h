@@ -17,6 +17,7 @@
 
 namespace hdeform::engine {
 
+/// What a frame shows and how.
 struct RenderSettings {
   bool show_field = true;    ///< the field's colormap, when a field is set
   bool show_classes = true;  ///< fixed and handle vertices in their colours
@@ -37,7 +38,9 @@ struct RenderSettings {
 
 /// Vertex classes as the shaders read them.
 inline uint32_t fixed_class() { return HD_CLASS_FIXED; }
+/// The class of a vertex outside the region of interest.
 inline uint32_t outside_class() { return HD_CLASS_OUTSIDE; }
+/// The class of handle `handle`'s vertices (each handle in its own colour).
 inline uint32_t handle_class(std::size_t handle) { return HD_CLASS_HANDLE_FIRST + static_cast<uint32_t>(handle); }
 /// A vertex drawn in its own colour (components in [0, 1]), shown with the classes.
 inline uint32_t color_class(const Eigen::Vector3f& rgb) {
@@ -45,13 +48,17 @@ inline uint32_t color_class(const Eigen::Vector3f& rgb) {
   return HD_CLASS_RGB | static_cast<uint32_t>(clamped.x()) | (static_cast<uint32_t>(clamped.y()) << 8) | (static_cast<uint32_t>(clamped.z()) << 16);
 }
 
+/// A dot drawn at a position (transfer mode's marker pairs).
 struct Marker {
   Eigen::Vector3f position;
   uint32_t color = 0;  ///< index into the handle colours
 };
 
+/// Draws one mesh with its field, classes and markers, the ground and the legend, into any target
+/// that shares the render pass layout; its geometry comes from a GeometryExchange, never waited for.
 class MeshRenderer {
  public:
+  /// Pipelines and per-frame buffers for `frames_in_flight` frames into passes of `render_pass`'s layout.
   MeshRenderer(const VulkanContext& context, VkRenderPass render_pass, const PassFormat& format, uint32_t frames_in_flight);
   ~MeshRenderer();
   MeshRenderer(const MeshRenderer&) = delete;
@@ -63,12 +70,15 @@ class MeshRenderer {
   /// A coarser set of triangles over the same vertices (proxy_mesh.h), drawn when the settings ask
   /// for it; empty: none. Reset by set_mesh.
   void set_proxy(const Eigen::MatrixXi& triangles);
+  /// Whether a proxy is set.
   bool has_proxy() const { return proxy_index_count_ > 0; }
   /// Whether every edge of the mesh set last has two triangles (no boundary).
   bool mesh_is_closed() const { return closed_; }
   /// Per-vertex field values (empty: none) and classes (empty: all free).
   void set_field(std::span<const float> values);
+  /// Per-vertex classes (fixed_class(), handle_class(k), outside_class(), color_class()); empty: all free.
   void set_classes(std::span<const uint32_t> classes);
+  /// Dots to draw over the mesh; empty: none.
   void set_markers(std::span<const Marker> markers);
 
   /// Before recording frame slot `frame` (whose previous submission the caller has waited for):
@@ -81,10 +91,12 @@ class MeshRenderer {
   /// The same into a part of the target (several views side by side): the camera's aspect and
   /// every pixel size are the area's.
   void prepare(uint32_t frame, const Camera& camera, const RenderSettings& settings, VkRect2D area);
+  /// Records the draws into a part of the target, inside a begun render pass.
   void record(VkCommandBuffer commands, uint32_t frame, VkRect2D area) const;
 
   /// Version and tag of the geometry the last prepare() took for its frame (0: none yet).
   std::uint64_t drawn_geometry_version() const { return drawn_geometry_version_; }
+  /// The tag of the geometry the last prepare() took (the publisher's label).
   std::uint64_t drawn_geometry_tag() const { return drawn_geometry_tag_; }
 
  private:

@@ -13,6 +13,7 @@
 
 namespace hdeform::engine {
 
+/// What an offscreen picture shows: a mesh and what is drawn on it.
 struct Scene {
   Eigen::MatrixXd positions;       ///< n×3, as drawn
   Eigen::MatrixXi triangles;       ///< m×3
@@ -24,6 +25,7 @@ struct Scene {
   Eigen::MatrixXi proxy_triangles; ///< drawn instead with shot.settings.proxy (proxy_mesh.h), or empty
 };
 
+/// How an offscreen picture is taken: its size, sampling, settings and camera.
 struct Shot {
   uint32_t width = 512;
   uint32_t height = 512;
@@ -32,6 +34,7 @@ struct Shot {
   std::optional<Camera> camera;    ///< default: three-quarter front view of rest_bounds
 };
 
+/// Renders a scene to pixels, waiting for the device.
 Pixels render_offscreen(const VulkanContext& context, const Scene& scene, const Shot& shot);
 
 }  // namespace hdeform::engine

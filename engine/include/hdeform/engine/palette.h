@@ -10,6 +10,7 @@
 
 namespace hdeform::engine {
 
+/// The field's colormap (viridis) as the shaders sample it, from 0 to 1.
 const std::array<Eigen::Vector3f, HD_COLORMAP_SAMPLES>& colormap_samples();
 
 /// The colormap at t ∈ [0, 1] (clamped), interpolated like the shader does.

@@ -11,6 +11,7 @@
 
 namespace hdeform::engine {
 
+/// The formats and sample count of a scene render pass.
 struct PassFormat {
   VkFormat color = VK_FORMAT_R8G8B8A8_UNORM;
   VkFormat depth = VK_FORMAT_D32_SFLOAT;
@@ -28,7 +29,9 @@ VkRenderPass create_scene_render_pass(const VulkanContext& context, const PassFo
 struct SceneAttachments {
   Image multisampled_color;  ///< only when samples > 1
   Image depth;
+  /// Creates the attachments for a framebuffer of `extent`.
   void create(const VulkanContext& context, const PassFormat& format, VkExtent2D extent);
+  /// Destroys them.
   void destroy(const VulkanContext& context);
   /// Framebuffer attachments in render pass order, around the single-sampled `target` view.
   std::vector<VkImageView> views(const PassFormat& format, VkImageView target) const;
@@ -37,6 +40,7 @@ struct SceneAttachments {
 /// The neutral background every picture is cleared to.
 inline constexpr float kBackground[3] = {0.80f, 0.82f, 0.85f};
 
+/// Begins a scene pass on `framebuffer`, clearing colour to kBackground and depth to 1.
 void begin_scene_pass(VkCommandBuffer commands, VkRenderPass pass, VkFramebuffer framebuffer, VkExtent2D extent);
 
 /// RGBA, 8 bits per channel, rows top to bottom.
@@ -46,22 +50,29 @@ struct Pixels {
   std::vector<uint8_t> rgba;
 };
 
+/// A picture rendered into host memory: the scene pass into an image, then copied back.
 class OffscreenTarget {
  public:
+  /// A target of width × height pixels with `samples` (reduced to what the device supports).
   OffscreenTarget(const VulkanContext& context, uint32_t width, uint32_t height, int samples);
   ~OffscreenTarget();
   OffscreenTarget(const OffscreenTarget&) = delete;
   OffscreenTarget& operator=(const OffscreenTarget&) = delete;
 
+  /// The render pass its frames use.
   VkRenderPass render_pass() const { return render_pass_; }
+  /// Its formats and sample count.
   const PassFormat& format() const { return format_; }
+  /// Its size in pixels.
   VkExtent2D extent() const { return extent_; }
 
+  /// Begins the scene pass (recording into `commands`).
   void begin(VkCommandBuffer commands);
   /// Ends the pass and copies the image into host memory; pixels() is valid once the commands ran.
   void finish(VkCommandBuffer commands);
   /// Ends the pass only (frames that are not read back).
   void end(VkCommandBuffer commands) { vkCmdEndRenderPass(commands); }
+  /// The picture, once the commands that finish() recorded have run.
   Pixels pixels() const;
 
  private:

@@ -16,29 +16,38 @@
 
 namespace hdeform::engine {
 
+/// A window's swapchain as a target: the scene pass into each image, presentation (optionally on
+/// a thread of its own), rebuilt when the window's size changes.
 class SwapchainTarget {
  public:
   // `framebuffer_size` returns the window's framebuffer size in pixels (0×0 while minimised).
   // With `present_on_thread`, present() hands the image to a thread of its own and returns: a
   // software presentation engine (lavapipe on X11) blocks in vkQueuePresentKHR until the frame
   // is rendered and copied, a frame's time in which the caller could not take input.
+  /// Creates the swapchain for the context's surface.
   SwapchainTarget(const VulkanContext& context, std::function<VkExtent2D()> framebuffer_size, int samples, bool vsync,
                   bool present_on_thread = false);
   ~SwapchainTarget();
   SwapchainTarget(const SwapchainTarget&) = delete;
   SwapchainTarget& operator=(const SwapchainTarget&) = delete;
 
+  /// The render pass its frames use.
   VkRenderPass render_pass() const { return render_pass_; }
+  /// Its formats and sample count.
   const PassFormat& format() const { return format_; }
+  /// The swapchain's size in pixels (0×0 while minimised).
   VkExtent2D extent() const { return extent_; }
+  /// Whether the window is minimised (nothing to draw into).
   bool minimised() const { return extent_.width == 0 || extent_.height == 0; }
 
   /// Acquires the next image, signalling `image_available`. Returns false when there is nothing
   /// to draw into this time (minimised, or the swapchain was just rebuilt for a new size).
   bool acquire(VkSemaphore image_available, uint32_t& image);
+  /// Begins the scene pass into image `image`.
   void begin(VkCommandBuffer commands, uint32_t image);
   /// Ends the pass; with `keep_copy` also copies the image for read_last_image().
   void end(VkCommandBuffer commands, uint32_t image, bool keep_copy = false);
+  /// The semaphore a frame into `image` signals when rendered, which present() waits on.
   VkSemaphore render_finished(uint32_t image) const { return images_[image].render_finished; }
   /// Presents (waiting on render_finished); rebuilds the swapchain when it is out of date.
   void present(uint32_t image);
