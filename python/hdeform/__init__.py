@@ -1,13 +1,19 @@
 """hdeform: detail-preserving surface deformation guided by harmonic fields (Zayer et al. 2005).
 
-Positions are (n, 3) float64 arrays, triangles (m, 3) integer arrays, vertex lists 1-D integer
-arrays; results come back as numpy arrays without a copy. The GIL is released while solving.
-Bad input raises hdeform.InputError (a ValueError) with the command line's message.
+Arguments: positions V are (n, 3) arrays of any float dtype (float32 is widened to float64) or
+nested lists of floats; triangles F are (m, 3) arrays of any integer dtype (0-based indices) or
+nested lists; vertex lists are 1-D integer arrays or lists. A wrong shape or dtype raises
+ValueError naming the argument. Results are float64 (positions, fields) or int32 (indices) numpy
+arrays that own the solver's memory (no copy). The GIL is released while anything is solved. Bad
+data raises hdeform.InputError (a ValueError) with the command line's message, a failed
+factorization hdeform.SolveError.
 
     import hdeform
     V, F = hdeform.read_mesh("buddha.obj")
     deformer = hdeform.Deformer(V, F, fixed, [handle], refine="auto")
     bent = deformer.deform([hdeform.Transform(matrix_3x4)])
+
+help(hdeform.Deformer) describes every argument.
 """
 from ._core import (  # noqa: F401
     Deformer,
@@ -33,10 +39,11 @@ __all__ = [
 
 
 def cotangent_laplacian(V, F):
-    """The cotangent Laplacian L (n x n, symmetric positive semi-definite, zero row sums; design.md).
+    """The cotangent Laplacian L of V ((n, 3) floats) and F ((m, 3) integers): n x n, symmetric
+    positive semi-definite, zero row sums, L_ij = -(cot a + cot b)/2 on an edge.
 
-    A scipy.sparse.csc_matrix when scipy is installed, else the CSC arrays
-    (data, indices, indptr, shape)."""
+    A scipy.sparse.csc_matrix of float64 when scipy is installed, else the CSC arrays
+    (data float64, indices int32, indptr int32, shape)."""
     data, indices, indptr, n = _cotangent_laplacian_csc(V, F)
     try:
         import scipy.sparse

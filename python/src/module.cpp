@@ -26,9 +26,9 @@
 #include "hdeform/mesh_io.h"
 #include "hdeform/shapes.h"
 #include "hdeform/transfer.h"
-#include "cli_support.h"
+#include "commands/cli_support.h"
 #ifdef HDEFORM_WITH_ENGINE
-#include "render_support.h"
+#include "commands/render_support.h"
 #endif
 
 namespace py = pybind11;
@@ -522,7 +522,11 @@ PYBIND11_MODULE(_core, m) {
 
   py::class_<HandleTransform>(m, "Transform", "A handle's edit: an affine map, or a turn of any size about a line (a twist)")
       .def(py::init([](const py::object& matrix) { return transform_argument(matrix, "matrix"); }), py::arg("matrix"),
-           "From a 3x4 matrix [A | t] or a 4x4 homogeneous one")
+           R"doc(A handle's edit from a matrix.
+
+matrix: a (3, 4) array [A | t] or a (4, 4) homogeneous one ending in 0 0 0 1, any float or
+    integer dtype; A must be finite and non-singular, without a reflection (else InputError).
+    The handle's vertices go to A p + t; the field spreads A's rotation and scale.)doc")
       .def_static("twist",
                   [](const std::array<double, 3>& axis, const std::array<double, 3>& point, double degrees, double scale,
                      const std::array<double, 3>& shift) {
@@ -530,8 +534,11 @@ PYBIND11_MODULE(_core, m) {
                                                         degrees * M_PI / 180.0, scale, Eigen::Vector3d(shift[0], shift[1], shift[2]));
                   },
                   py::arg("axis"), py::arg("point"), py::arg("degrees"), py::arg("scale") = 1.0, py::arg("shift") = std::array<double, 3>{0, 0, 0},
-                  "A turn by any angle (720 for two turns) about the line through point along axis, blended by angle; then a "
-                  "uniform scale about point and a shift: p -> point + shift + scale R (p - point)")
+                  R"doc(A turn of any size about a line, blended along the field (720 gives two full turns).
+
+axis: 3 floats, the line's direction (not zero).  point: 3 floats, a point on the line.
+degrees: the turn, any value.  scale: a uniform scale about point (> 0).  shift: 3 floats,
+a translation applied after: p -> point + shift + scale R(axis, degrees) (p - point).)doc")
       .def_property_readonly("matrix", [](const HandleTransform& t) { return owning_array(Eigen::MatrixXd(t.affine())); })
       .def_property_readonly("degrees", [](const HandleTransform& t) { return t.angle * 180.0 / M_PI; })
       .def_property_readonly("scale", [](const HandleTransform& t) { return t.scale; })
@@ -541,12 +548,31 @@ PYBIND11_MODULE(_core, m) {
       });
 
   static const std::string deformer_doc =
-      "Sets up the solve (Laplacian, factorization, field). refine: as-rigid-as-possible iterations after each "
-      "deform(), a number or 'auto' (until refine_tolerance, or refine_settle when > 0); progress: called with a line "
-      "for each set-up stage; resolution: 'exact' (every vertex an unknown), 'multiresolution' (the solves on a base "
-      "mesh of about base_vertices vertices, the detail carried in its local frames; fixed and handle vertices exact) "
-      "or 'auto' (multiresolution from " + std::to_string(kMultiresolutionFrom) + " vertices on)";
-  py::class_<PyDeformer>(m, "Deformer", "The editing engine: set up once per mesh and vertex classes, then deform per edit")
+      R"doc(Sets up the solve once: Laplacian, factorization, harmonic field.
+
+V: (n, 3) positions, any float dtype (float32 is widened) or nested lists.
+F: (m, 3) triangles, 0-based vertex indices, any integer dtype or nested lists.
+fixed: 1-D integer array or list of the vertices that stay at rest (the sinks).
+handles: a list of 1-D integer arrays or lists, one per handle (the sources).
+roi: 1-D integer array or list, the region of interest (None: the whole mesh); vertices
+    outside it stay where they are.
+backend: 'tree' (the default), 'eigen' or 'cholmod'.
+refine: as-rigid-as-possible iterations after each deform(): 0 (the paper's method alone), a
+    number, or 'auto' (until an iteration gains less than refine_tolerance, or moves no vertex
+    by more than refine_settle of the bounding-box diagonal when that is > 0).
+acceleration: Anderson acceleration of the refinement.
+progress: None or a callable taking one str, called before each set-up stage.
+resolution: 'exact' (every vertex an unknown), 'multiresolution' (the solves on a base mesh of
+    about base_vertices vertices, the detail carried; fixed and handle vertices exact) or 'auto'
+    (multiresolution from )doc" + std::to_string(kMultiresolutionFrom) + R"doc( vertices on).
+
+Raises ValueError for a wrong shape or dtype, hdeform.InputError for bad data (a handle without
+a fixed vertex in its part of the mesh, an index out of range) and hdeform.SolveError when the
+factorization fails.)doc";
+  py::class_<PyDeformer>(m, "Deformer", R"doc(The editing engine: set up once per mesh and vertex classes, then deform() per edit.
+
+    deformer = hdeform.Deformer(V, F, fixed, [handle], refine="auto")
+    bent = deformer.deform([hdeform.Transform(matrix_3x4)])    # (n, 3) float64)doc")
       .def(py::init<const py::object&, const py::object&, const py::object&, const py::object&, const py::object&, const std::string&,
                     const py::object&, double, double, bool, const py::object&, const std::string&, Eigen::Index>(),
            py::arg("V"), py::arg("F"), py::arg("fixed"), py::arg("handles"), py::arg("roi") = py::none(),
@@ -556,27 +582,33 @@ PYBIND11_MODULE(_core, m) {
            py::arg("base_vertices") = kDefaultBaseVertices,
            deformer_doc.c_str())
       .def("deform", &PyDeformer::deform, py::arg("transforms"), py::arg("refine") = py::none(),
-           "Deformed positions (n x 3) for one transform per handle (a Transform or a 3x4 / 4x4 array); refined as the "
-           "constructor's refine says, or as `refine` (a number or 'auto') says for this call. Refined from the paper's "
-           "result, so the same pose gives the same positions whatever was deformed before")
+           R"doc(The deformed positions for one transform per handle.
+
+transforms: a list with one Transform, or (3, 4) / (4, 4) float array, per handle.
+refine: None (the constructor's refine), or a number or 'auto' for this call.
+Returns an (n, 3) float64 array. Refinement starts from the paper's result for this pose, so the
+same pose gives the same positions whatever was deformed before.)doc")
       .def("refine", &PyDeformer::refine_more, py::arg("iterations") = 1,
-           "Up to `iterations` more refinement iterations of the last deform() (fewer once converged); its positions (n x 3). "
-           "deform(T, refine=0) then refine() until refinement['converged'] gives the same bits as deform(T, refine='auto')")
-      .def_property_readonly("field", &PyDeformer::field, "The harmonic field h: 1 on the handles, 0 on the fixed vertices")
-      .def_property_readonly("warnings", &PyDeformer::warnings)
+           R"doc(Up to `iterations` (int) more refinement iterations of the last deform(), fewer once converged.
+
+Returns the (n, 3) float64 positions. deform(T, refine=0) then refine() until
+refinement['converged'] gives the same bits as deform(T, refine='auto').)doc")
+      .def_property_readonly("field", &PyDeformer::field, "The harmonic field h, an (n,) float64 array: 1 on the handles, 0 on the fixed vertices")
+      .def_property_readonly("warnings", &PyDeformer::warnings, "Findings about the mesh and the handles (list of str), as `hdeform edit` reports them")
       .def_property_readonly("refinement", &PyDeformer::refinement,
-                             "The last edit's as-rigid-as-possible refinement: iterations, energy and unrefined_energy (None "
-                             "before any iteration of it), converged, settled, largest_step")
+                             "The last edit's refinement, a dict: iterations (int), energy and unrefined_energy (float, None "
+                             "before any iteration), converged, settled (bool), largest_step (float, a fraction of the diagonal)")
       .def_property("refine_tolerance", &PyDeformer::refine_tolerance, &PyDeformer::set_refine_tolerance,
                     "Where a refinement until converged stops: the energy falls by less than this fraction in an iteration")
-      .def_property_readonly("timings", &PyDeformer::timings, "Set-up and last update, milliseconds")
-      .def_property_readonly("vertex_count", &PyDeformer::vertex_count)
+      .def_property_readonly("timings", &PyDeformer::timings, "Set-up stages and the last update's stages, a dict of float milliseconds")
+      .def_property_readonly("vertex_count", &PyDeformer::vertex_count, "n, the mesh's vertices")
       .def_property_readonly("resolution", &PyDeformer::resolution, "Where the solves run: 'exact' or 'multiresolution'")
       .def_property_readonly("solved_vertex_count", &PyDeformer::solved_vertex_count,
                              "The vertices the solves run on: the base mesh's with multiresolution, else vertex_count")
-      .def_property_readonly("handle_count", &PyDeformer::handle_count);
+      .def_property_readonly("handle_count", &PyDeformer::handle_count, "The number of handles: deform() takes one transform each");
 
-  m.def("read_mesh", &read_mesh_binding, py::arg("path"), "(V, F) from an OBJ, PLY, OFF or STL file");
+  m.def("read_mesh", &read_mesh_binding, py::arg("path"), "(V, F) from an OBJ, PLY, OFF or STL file (path: str or os.PathLike): V an (n, 3) float64 array, F an (m, 3) "
+        "int32 array of 0-based indices. Raises hdeform.InputError naming the file and line");
   m.def(
       "triangulate",
       [](const py::object& positions, const py::object& sizes, const py::object& corners) {
@@ -588,20 +620,31 @@ PYBIND11_MODULE(_core, m) {
       py::arg("V"), py::arg("sizes"), py::arg("corners"),
       "Polygons (sizes[p] corners each, their vertex indices one after another in corners) as an (m, 3) int32 array of "
       "triangles, by the readers' rule: a quad along its shorter diagonal, a larger polygon as a fan from its first corner");
-  m.def("write_mesh", &write_mesh_binding, py::arg("path"), py::arg("V"), py::arg("F"), "Writes .obj or .ply, atomically");
+  m.def("write_mesh", &write_mesh_binding, py::arg("path"), py::arg("V"), py::arg("F"), "Writes V ((n, 3) floats) and F ((m, 3) integers) to path, .obj or .ply by its extension, atomically "
+        "(a temporary file renamed when complete)");
   m.def("shape", &shape_binding, py::arg("name"), py::arg("resolution") = kDefaultShapeResolution,
-        "A built-in shape and its demo edit: {'V', 'F', 'fixed', 'handles', 'transform'}");
+        "A built-in shape ('cactus', 'bar', 'cylinder', 'sphere'; resolution: segments around, at least 8) and its "
+        "demo edit, a dict: 'V' (n, 3) float64, 'F' (m, 3) int32, 'fixed' (k,) int32, 'handles' a list of int32 arrays, "
+        "'transform' a Transform");
   m.def("_cotangent_laplacian_csc", &laplacian_binding, py::arg("V"), py::arg("F"));
   m.def("harmonic_field", &harmonic_field_binding, py::arg("V"), py::arg("F"), py::arg("sources"), py::arg("sinks"),
-        py::arg("backend") = std::string(to_string(default_backend())), "h: 1 at the sources, 0 at the sinks, harmonic elsewhere");
+        py::arg("backend") = std::string(to_string(default_backend())), "The harmonic field, an (n,) float64 array: 1 at the sources, 0 at the sinks (1-D integer arrays or lists), "
+        "harmonic elsewhere (V (n, 3) floats, F (m, 3) integers)");
   m.def("transfer", &transfer_binding, py::arg("source_rest"), py::arg("source_poses"), py::arg("target"), py::arg("markers"),
         py::arg("method") = "correspondence", py::arg("top_n") = 0, py::arg("mismatch_threshold") = kDefaultMismatchThreshold,
         py::arg("backend") = std::string(to_string(default_backend())),
-        "The source's poses on the target (paper sections 6 and 7): one (n, 3) array per pose");
+        "The source's poses on the target (paper sections 6 and 7). source_rest and target: (V, F) tuples; "
+        "source_poses: a list of (n_s, 3) float arrays (the source's vertices in each pose); markers: (k, 2) integer "
+        "array or list of (source vertex, target vertex) pairs, k >= 3; method: 'correspondence' or 'interpolation'. "
+        "Returns a list of (n_t, 3) float64 arrays, one per pose");
   m.def("correspondence", &correspondence_binding, py::arg("source_rest"), py::arg("target"), py::arg("markers"), py::arg("top_n") = 0,
         py::arg("mismatch_threshold") = kDefaultMismatchThreshold, py::arg("backend") = std::string(to_string(default_backend())),
-        "Per target triangle: (source triangle, coordinate distance, mismatch)");
+        "The triangle correspondence of paper section 6: a tuple of three arrays over the target's triangles: the "
+        "matched source triangle (int32), the distance in harmonic coordinates (float64) and whether it is a mismatch "
+        "(bool). Arguments as for transfer()");
   m.def("render", &render_binding, py::arg("V"), py::arg("F"), py::arg("path"), py::arg("field") = py::none(), py::arg("fixed") = py::none(),
         py::arg("handles") = py::none(), py::arg("size") = "1024x768", py::arg("camera") = "", py::arg("up") = "z",
-        py::arg("wireframe") = false, py::arg("device") = "", "A PNG of the mesh (the field as colours, fixed and handle vertices marked)");
+        py::arg("wireframe") = false, py::arg("device") = "", "Writes a PNG of the mesh to path: V (n, 3) floats, F (m, 3) integers; field: None or (n,) floats drawn as "
+        "colours; fixed: None or 1-D integers; handles: None or a list of 1-D integer arrays; size 'WxH'; camera "
+        "'YAW,PITCH[,ZOOM]' in degrees; up 'z' or 'y'. Only when hdeform.has_render");
 }
