@@ -73,6 +73,9 @@ TEST_F(Cli, UsageErrorsExitWithTwo) {
   EXPECT_EQ(run(dir, "edit --shape cactus --mesh a.obj --out " + path("x.obj")).exit_code, 2);
   EXPECT_EQ(run(dir, "edit --shape teapot --out " + path("x.obj")).exit_code, 2);
   EXPECT_EQ(run(dir, "edit --shape cactus --backend magic --out " + path("x.obj")).exit_code, 2);
+  const auto negative_relief = run(dir, "bench --shape cactus --resolution 12 --relief -0.001 --quiet");
+  EXPECT_EQ(negative_relief.exit_code, 2);
+  EXPECT_TRUE(contains(negative_relief.err, "--relief must be between 0 and 0.05")) << negative_relief.err;
   dir.write("h.txt", "0\n");
   const auto mismatch = run(dir, "edit --shape cactus --handle " + path("h.txt") + " --out " + path("x.obj"));
   EXPECT_EQ(mismatch.exit_code, 2);

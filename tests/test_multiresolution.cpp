@@ -50,18 +50,6 @@ Mesh torus(int around, int across, bool open = false) {
   return mesh;
 }
 
-// Area-weighted vertex normals.
-Eigen::MatrixXd vertex_normals(const Eigen::MatrixXd& positions, const Eigen::MatrixXi& triangles) {
-  Eigen::MatrixXd normals = Eigen::MatrixXd::Zero(positions.rows(), 3);
-  for (Eigen::Index t = 0; t < triangles.rows(); ++t) {
-    const Eigen::Vector3d a = positions.row(triangles(t, 0)), b = positions.row(triangles(t, 1)), c = positions.row(triangles(t, 2));
-    const Eigen::RowVector3d n = (b - a).cross(c - a).transpose();
-    for (int k = 0; k < 3; ++k) normals.row(triangles(t, k)) += n;
-  }
-  normals.rowwise().normalize();
-  return normals;
-}
-
 // The bar subdivided twice, with relief: displaced along its normals by a pattern of three
 // frequencies (the finest about two edges long), and its demo edit (a twist of the top end).
 struct Relief {
@@ -79,14 +67,7 @@ Relief bar_with_relief() {
   relief.mesh = twice.mesh;
   relief.transform = bar.demo_transform;
   relief.diagonal = bounding_box_diagonal(relief.mesh.positions);
-  const Eigen::MatrixXd normals = vertex_normals(relief.mesh.positions, relief.mesh.triangles);
-  const double amplitude = 0.004 * relief.diagonal;
-  for (Eigen::Index v = 0; v < relief.mesh.vertex_count(); ++v) {
-    const Eigen::RowVector3d p = relief.mesh.positions.row(v) / relief.diagonal;
-    const double pattern = std::sin(40 * p.x() + 7 * p.z()) * std::sin(40 * p.y()) + 0.5 * std::sin(90 * p.z() + 3 * p.x()) +
-                           0.25 * std::sin(170 * (p.x() + p.y() + p.z()));
-    relief.mesh.positions.row(v) += amplitude * pattern * normals.row(v);
-  }
+  add_relief(relief.mesh, 0.004);
   return relief;
 }
 
@@ -95,6 +76,40 @@ DeformerOptions multiresolution(Eigen::Index base_vertices) {
   options.resolution = Resolution::Multiresolution;
   options.base_vertices = base_vertices;
   return options;
+}
+
+TEST(Relief, DisplacesAlongTheNormalsWithinItsBound) {
+  const Shape bar = make_shape(ShapeKind::Bar, 16);
+  const Mesh rest = subdivide(bar.mesh).mesh;
+  Mesh unchanged = rest;
+  add_relief(unchanged, 0.0);
+  EXPECT_TRUE(unchanged.positions == rest.positions) << "amplitude 0 must leave the positions as they are";
+
+  const double amplitude = 0.004, diagonal = bounding_box_diagonal(rest.positions);
+  Mesh relief = rest;
+  add_relief(relief, amplitude);
+  const Eigen::MatrixXd normals = vertex_normals(rest.positions, rest.triangles);
+  double largest = 0.0;
+  for (Eigen::Index v = 0; v < rest.vertex_count(); ++v) {
+    const Eigen::RowVector3d moved = relief.positions.row(v) - rest.positions.row(v);
+    EXPECT_LT(moved.cross(Eigen::RowVector3d(normals.row(v))).norm(), 1e-12 * diagonal) << "vertex " << v << " moved off its normal";
+    largest = std::max(largest, moved.norm());
+  }
+  EXPECT_LE(largest, 1.75 * amplitude * diagonal);
+  EXPECT_GT(largest, 0.5 * amplitude * diagonal) << "the pattern should reach well above half its bound";
+  EXPECT_THROW(add_relief(relief, -0.001), InputError);
+  EXPECT_THROW(add_relief(relief, std::nan("")), InputError);
+}
+
+TEST(VertexNormals, AreUnitAndRadialOnASphere) {
+  const Shape sphere = make_shape(ShapeKind::Sphere, 32);
+  const Eigen::MatrixXd normals = vertex_normals(sphere.mesh.positions, sphere.mesh.triangles);
+  const Eigen::RowVector3d center = sphere.mesh.positions.colwise().mean();
+  for (Eigen::Index v = 0; v < normals.rows(); ++v) {
+    EXPECT_NEAR(normals.row(v).norm(), 1.0, 1e-12);
+    const Eigen::RowVector3d radial = (sphere.mesh.positions.row(v) - center).normalized();
+    EXPECT_GT(normals.row(v).dot(radial), 0.99) << "vertex " << v;
+  }
 }
 
 TEST(BaseMesh, KeepsTheTopologyAndTheFineVerticesBitForBit) {

@@ -72,6 +72,9 @@ class BenchCommand final : public BatchCommand {
                         "Split every triangle into four this many times first (new vertices after the originals, fixed or handle "
                         "where both parents are); measures the backends, the default schedule and the pipeline only")
         ->capture_default_str();
+    command->add_option("--relief", relief_,
+                        "After --subdivide: displace each vertex along its normal by this fraction of the bounding box's "
+                        "diagonal times a fixed pattern of three frequencies, so that the detail is real (e.g. 0.001)");
     command->add_option("--threads", threads_, "Worker threads (default: all cores)");
     resolution_.add_options(*command);
     command->add_option("--out", out_path_, "Also write the JSON report to this file");
@@ -125,6 +128,8 @@ class BenchCommand final : public BatchCommand {
       loaded.mesh = std::move(subdivision.mesh);
       subdivide_ms += milliseconds_since(subdivide_start);
     }
+    if (!(relief_ >= 0.0 && relief_ <= 0.05)) throw UsageError("--relief must be between 0 and 0.05 (a fraction of the diagonal)");
+    add_relief(loaded.mesh, relief_);
     const Mesh& mesh = loaded.mesh;
 #ifdef HDEFORM_WITH_ENGINE
     if (render_) {
@@ -149,6 +154,7 @@ class BenchCommand final : public BatchCommand {
                              {"steps", steps_},
                              {"elimination_order", to_string(elimination_order_for(mesh.vertex_count()))},
                              {"read_ms", read_ms}};
+    if (relief_ > 0.0) report["relief"] = relief_;
     if (subdivide_ > 0) {
       report["subdivide"] = {{"levels", subdivide_}, {"ms", subdivide_ms}, {"file_vertices", file_vertices}, {"file_triangles", file_triangles},
                              {"fixed", constraints.fixed.size()}, {"handle", constraints.handles[0].size()}};
@@ -429,6 +435,7 @@ class BenchCommand final : public BatchCommand {
   std::string out_path_;
   int steps_ = 30;
   int subdivide_ = 0;
+  double relief_ = 0.0;
   int threads_ = 0;
   bool quiet_ = false;
 #ifdef HDEFORM_WITH_ENGINE

@@ -29,6 +29,9 @@ void validate_triangles(const Eigen::MatrixXi& triangles, Eigen::Index vertex_co
 /// Length of the diagonal of the axis-aligned bounding box (0 for no points).
 double bounding_box_diagonal(const Eigen::MatrixXd& positions);
 
+/// Area-weighted unit vertex normals, n × 3 (zero for a vertex in no triangle of nonzero area).
+Eigen::MatrixXd vertex_normals(const Eigen::MatrixXd& positions, const Eigen::MatrixXi& triangles);
+
 /// Polygons (`sizes[p]` corners each, their vertex indices one polygon after another in `corners`)
 /// as triangles, by the rule every mesh reader follows: a quad is split along its shorter diagonal
 /// (a tie takes the one from its second corner), a larger polygon into a fan from its first corner.

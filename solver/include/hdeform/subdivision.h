@@ -31,4 +31,11 @@ std::vector<int> subdivided_set(const std::vector<int>& vertices, const Subdivis
 /// Fixed set, handles and region of interest carried over, each by subdivided_set.
 EditConstraints subdivided_constraints(const EditConstraints& constraints, const Subdivision& subdivision);
 
+/// Relief, for measuring meshes whose detail is real: every vertex displaced along its normal by
+/// `amplitude` × the bounding box's diagonal × a fixed pattern of three frequencies of its
+/// position (|pattern| ≤ 1.75; the finest wavelength about 1/47 of the diagonal). What `hdeform
+/// bench --relief` applies after `--subdivide`. Amplitude 0 leaves the positions as they are.
+/// Throws InputError for a negative or non-finite amplitude.
+void add_relief(Mesh& mesh, double amplitude);
+
 }  // namespace hdeform

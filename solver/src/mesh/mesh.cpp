@@ -1,5 +1,6 @@
 #include "hdeform/mesh.h"
 
+#include <Eigen/Geometry>
 #include <cmath>
 #include <string>
 
@@ -53,6 +54,21 @@ void validate_triangles(const Eigen::MatrixXi& triangles, Eigen::Index vertex_co
 double bounding_box_diagonal(const Eigen::MatrixXd& positions) {
   if (positions.rows() == 0) return 0.0;
   return (positions.colwise().maxCoeff() - positions.colwise().minCoeff()).norm();
+}
+
+Eigen::MatrixXd vertex_normals(const Eigen::MatrixXd& positions, const Eigen::MatrixXi& triangles) {
+  Eigen::MatrixXd normals = Eigen::MatrixXd::Zero(positions.rows(), 3);
+  for (Eigen::Index t = 0; t < triangles.rows(); ++t) {
+    const Eigen::RowVector3d a = positions.row(triangles(t, 0)), b = positions.row(triangles(t, 1)), c = positions.row(triangles(t, 2));
+    // Twice the triangle's area along its normal: the area weighting comes for free.
+    const Eigen::RowVector3d area_normal = (b - a).cross(c - a);
+    for (int corner = 0; corner < 3; ++corner) normals.row(triangles(t, corner)) += area_normal;
+  }
+  for (Eigen::Index v = 0; v < normals.rows(); ++v) {
+    const double length = normals.row(v).norm();
+    if (length > 0.0) normals.row(v) /= length;
+  }
+  return normals;
 }
 
 }  // namespace hdeform

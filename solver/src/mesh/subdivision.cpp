@@ -1,6 +1,9 @@
 #include "hdeform/subdivision.h"
 
+#include "hdeform/errors.h"
+
 #include <algorithm>
+#include <cmath>
 #include <cstdint>
 #include <unordered_map>
 
@@ -60,6 +63,21 @@ EditConstraints subdivided_constraints(const EditConstraints& constraints, const
   for (const auto& handle : constraints.handles) result.handles.push_back(subdivided_set(handle, subdivision));
   if (!constraints.region_of_interest.empty()) result.region_of_interest = subdivided_set(constraints.region_of_interest, subdivision);
   return result;
+}
+
+void add_relief(Mesh& mesh, double amplitude) {
+  if (!std::isfinite(amplitude) || amplitude < 0.0) {
+    throw InputError("relief amplitude must be a finite number, 0 or more; got " + std::to_string(amplitude));
+  }
+  if (amplitude == 0.0) return;
+  const double diagonal = bounding_box_diagonal(mesh.positions);
+  const Eigen::MatrixXd normals = vertex_normals(mesh.positions, mesh.triangles);
+  for (Eigen::Index v = 0; v < mesh.vertex_count(); ++v) {
+    const Eigen::RowVector3d p = mesh.positions.row(v) / diagonal;
+    const double pattern = std::sin(40 * p.x() + 7 * p.z()) * std::sin(40 * p.y()) + 0.5 * std::sin(90 * p.z() + 3 * p.x()) +
+                           0.25 * std::sin(170 * (p.x() + p.y() + p.z()));
+    mesh.positions.row(v) += amplitude * diagonal * pattern * normals.row(v);
+  }
 }
 
 }  // namespace hdeform
