@@ -97,7 +97,6 @@ class BenchCommand final : public BatchCommand {
     const SolverChoice solver{.threads = threads_};
     const auto threads = solver.apply_threads();
     const Progress progress(quiet_);
-    render_options_.quiet = quiet_;
     trace_.begin();
 
     auto start = Clock::now();
@@ -134,6 +133,7 @@ class BenchCommand final : public BatchCommand {
 #ifdef HDEFORM_WITH_ENGINE
     if (render_) {
       progress("rendering benchmark");
+      render_options_.quiet = quiet_;
       nlohmann::json report = bench_rendering(mesh, constraints, transform, render_options_);
       report["command"] = "bench";
       report["mesh"] = source_.describe();

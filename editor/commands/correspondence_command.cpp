@@ -59,7 +59,6 @@ class CorrespondenceCommand final : public BatchCommand {
     if (!png_path_.empty()) refuse_overwriting_inputs(png_path_, arguments_.inputs());
     const auto threads = solver_.apply_threads();
     const Progress progress(quiet_);
-    picture_.quiet = quiet_;
     TransferInputs loaded = load_transfer_inputs(arguments_, progress);
     const DeformationTransfer transfer(std::move(loaded.source_rest), std::move(loaded.target), std::move(loaded.markers), options,
                                        [&](std::string_view stage) { progress(stage); });
@@ -126,7 +125,9 @@ class CorrespondenceCommand final : public BatchCommand {
     }
     const std::vector<engine::Scene> panels{per_triangle_scene(target, target_colors, picture_.up_axis()),
                                             per_triangle_scene(source, source_colors, picture_.up_axis())};
-    return render_png(picture_, panels, png_path_);
+    PictureOptions picture = picture_;
+    picture.quiet = quiet_;
+    return render_png(picture, panels, png_path_);
   }
 #endif
 

@@ -85,7 +85,6 @@ class EditCommand final : public BatchCommand {
     trace_.begin();
     const auto threads = solver_.apply_threads();
     const Progress progress(quiet_);
-    picture_.quiet = quiet_;
     DeformerOptions options = DeformerOptions::solver(solver_.parsed_backend(), solver_.parsed_schedule());
     resolution_.apply(options);
     int refine_iterations = refine_.parsed_iterations();
@@ -206,6 +205,7 @@ class EditCommand final : public BatchCommand {
       progress("rendering " + png_path_);
       engine::Scene scene{positions, deformer.rest().triangles, {}, vertex_classes(deformer.partition()), {},
                           engine::Bounds::of(deformer.rest().positions), picture_.up_axis(), {}};
+      picture_.quiet = quiet_;
       picture = render_png(picture_, scene, png_path_);
     }
 #endif

@@ -42,7 +42,6 @@ class FieldCommand final : public BatchCommand {
     if (!png_path_.empty()) refuse_overwriting_inputs(png_path_, {source_.mesh_path, sources_path_, sinks_path_});
     const auto threads = solver_.apply_threads();
     const Progress progress(quiet_);
-    picture_.quiet = quiet_;
     progress("reading " + source_.describe());
     LoadedMesh loaded = load_mesh(source_);
     const Mesh& mesh = loaded.mesh;
@@ -77,6 +76,7 @@ class FieldCommand final : public BatchCommand {
     if (!png_path_.empty()) {
       progress("rendering " + png_path_);
       engine::Scene scene{mesh.positions, mesh.triangles, field, vertex_classes(partition), {}, {}, picture_.up_axis(), {}};
+      picture_.quiet = quiet_;
       picture = render_png(picture_, scene, png_path_);
     }
 #endif
