@@ -4,6 +4,13 @@
 if(HDEFORM_PYTHON STREQUAL "OFF" OR HDEFORM_SANITIZE OR HDEFORM_FUZZ)
   return()
 endif()
+# The module is a shared object that links the static libraries, so they are position-independent
+# whenever a module may be built, found or not: a tree that gains pybind11 later (scripts/run, then
+# scripts/test) keeps every object it compiled.
+set_target_properties(hdeform_solver hdeform_commands PROPERTIES POSITION_INDEPENDENT_CODE ON)
+if(TARGET hdeform_engine)
+  set_target_properties(hdeform_engine PROPERTIES POSITION_INDEPENDENT_CODE ON)
+endif()
 # Debian's interpreter is the one its pybind11 and numpy packages serve; an interpreter earlier on
 # PATH (pyenv, a virtual environment) has neither. Python_EXECUTABLE overrides.
 if(NOT DEFINED Python_EXECUTABLE AND EXISTS /usr/bin/python3)
@@ -20,11 +27,6 @@ if(NOT Python_FOUND OR NOT pybind11_FOUND)
   endif()
   message(STATUS "hdeform: no Python module (Python development files or pybind11 not found)")
   return()
-endif()
-# The module is a shared object that links the static libraries.
-set_target_properties(hdeform_solver hdeform_commands PROPERTIES POSITION_INDEPENDENT_CODE ON)
-if(TARGET hdeform_engine)
-  set_target_properties(hdeform_engine PROPERTIES POSITION_INDEPENDENT_CODE ON)
 endif()
 add_subdirectory(python)
 # The Blender add-on uses the module.
