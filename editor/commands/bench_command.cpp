@@ -117,6 +117,7 @@ class BenchCommand final : public BatchCommand {
       throw UsageError("give --handle, --transform (and --fixed), or a --shape");
     }
     if (subdivide_ < 0 || subdivide_ > 4) throw UsageError("--subdivide must be between 0 and 4");
+    if (!(relief_ >= 0.0 && relief_ <= 0.05)) throw UsageError("--relief must be between 0 and 0.05 (a fraction of the diagonal)");
     const Eigen::Index file_vertices = loaded.mesh.vertex_count(), file_triangles = loaded.mesh.triangle_count();
     double subdivide_ms = 0.0;
     for (int level = 0; level < subdivide_; ++level) {
@@ -127,7 +128,6 @@ class BenchCommand final : public BatchCommand {
       loaded.mesh = std::move(subdivision.mesh);
       subdivide_ms += milliseconds_since(subdivide_start);
     }
-    if (!(relief_ >= 0.0 && relief_ <= 0.05)) throw UsageError("--relief must be between 0 and 0.05 (a fraction of the diagonal)");
     add_relief(loaded.mesh, relief_);
     const Mesh& mesh = loaded.mesh;
 #ifdef HDEFORM_WITH_ENGINE
