@@ -8,6 +8,8 @@
 #include <map>
 #include <numbers>
 #include <random>
+#include <span>
+#include <stdexcept>
 
 #include "hdeform/deformer.h"
 #include "hdeform/laplacian.h"
@@ -59,6 +61,62 @@ TEST(RotationFit, StartsAtSaddlesAndHalfTurnsAndDegenerateMatrices) {
   const RotationFit zero = fit_rotation(Eigen::Matrix3d::Zero(), Eigen::Matrix3d::Identity());
   EXPECT_TRUE(zero.rotation.allFinite());
   EXPECT_NEAR(zero.rotation.determinant(), 1.0, 1e-12);
+}
+
+// Many fits at once (four in SIMD lanes) against one at a time: the same bits, whatever the kinds
+// of matrix side by side in one group (a lane that converges in one step beside one that needs
+// many, or one that falls back to the SVD), and whatever the grouping.
+TEST(RotationFit, ManyAtOnceGiveWhatEachGivesAlone) {
+  std::mt19937 random(11);
+  std::normal_distribution<double> normal;
+  std::uniform_int_distribution<int> kind_of(0, 6);
+  std::vector<Eigen::Matrix3d> a, start;
+  for (int trial = 0; trial < 4001; ++trial) {  // not a multiple of four: a tail of one
+    Eigen::Matrix3d m;
+    for (double& value : m.reshaped()) value = normal(random);
+    const Eigen::Matrix3d turn = random_rotation(random);
+    switch (kind_of(random)) {
+      case 0: break;                                                    // random
+      case 1: m.col(2) = 0.5 * m.col(0) - m.col(1); break;              // rank 2 (a flat neighbourhood)
+      case 2: m = m.col(0) * m.col(1).transpose(); break;               // rank 1
+      case 3: m *= 1e-12; break;                                        // tiny
+      case 4: m = turn * Eigen::Vector3d(3.0, 2.0, -1e-9).asDiagonal(); break;  // nearly singular, det < 0
+      case 5: m = turn + 1e-3 * m; break;                               // nearly the warm start: one short step
+      case 6: m.setZero(); break;
+    }
+    a.push_back(m);
+    start.push_back(trial % 5 == 4 ? Eigen::Matrix3d(random_rotation(random)) : turn);
+  }
+  int fell_back = 0, converged_at_once = 0, long_runs = 0;
+  for (const int max_steps : {0, 1, 2, 16, 64}) {
+    for (const double tolerance : {1e-7, 1e-12}) {
+      std::vector<RotationFit> together(a.size());
+      fit_rotations(a, start, together, tolerance, max_steps);
+      for (std::size_t i = 0; i < a.size(); ++i) {
+        const RotationFit alone = fit_rotation(a[i], start[i], tolerance, max_steps);
+        ASSERT_LE((together[i].rotation - alone.rotation).cwiseAbs().maxCoeff(), 1e-12) << "matrix " << i << ", " << max_steps << " steps";
+        ASSERT_NEAR(together[i].objective, alone.objective, 1e-12 * (1.0 + std::abs(alone.objective))) << "matrix " << i;
+        ASSERT_EQ(together[i].steps, alone.steps) << "matrix " << i;
+        ASSERT_EQ(together[i].fell_back_to_svd, alone.fell_back_to_svd) << "matrix " << i;
+        fell_back += alone.fell_back_to_svd ? 1 : 0;
+        converged_at_once += alone.steps == 1 && max_steps > 1 ? 1 : 0;
+        long_runs += alone.steps > 3 ? 1 : 0;
+      }
+      // Shifted by one, every matrix has other neighbours in its lanes: still the same bits.
+      std::vector<RotationFit> shifted(a.size() - 1);
+      fit_rotations(std::span(a).subspan(1), std::span(start).subspan(1), shifted, tolerance, max_steps);
+      for (std::size_t i = 1; i < a.size(); ++i) {
+        ASSERT_EQ(shifted[i - 1].rotation, together[i].rotation) << "matrix " << i;
+        ASSERT_EQ(shifted[i - 1].objective, together[i].objective) << "matrix " << i;
+      }
+    }
+  }
+  // The groups did mix every way a lane can end.
+  EXPECT_GT(fell_back, 100);
+  EXPECT_GT(converged_at_once, 100);
+  EXPECT_GT(long_runs, 100);
+  std::vector<RotationFit> too_few(2);
+  EXPECT_THROW(fit_rotations(a, start, too_few), std::invalid_argument);
 }
 
 // The energy of refinement.h written out from its definition, vertex by vertex, with rotations

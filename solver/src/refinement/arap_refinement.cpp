@@ -5,10 +5,12 @@
 #include <tbb/parallel_reduce.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <numbers>
 #include <limits>
+#include <span>
 
 #include "hdeform/rotation_fit.h"
 #include "hdeform/stopwatch.h"
@@ -457,16 +459,36 @@ double ArapRefinement::fit_rotations(const std::vector<Eigen::Matrix3d>& start_r
   const std::size_t chunks = chunk_count(count);
   for_each_chunk(count, [&](std::size_t chunk, std::size_t begin, std::size_t end) {
     double sum = 0.0, unlimited = 0.0;
-    for (std::size_t i = begin; i < end; ++i) {
-      Eigen::Matrix3d a = Eigen::Matrix3d::Zero();
-      for (std::size_t p = local_start_[i]; p < local_start_[i + 1]; ++p) {
-        a.noalias() += row3(positions_, static_cast<std::size_t>(local_vertex_[p])) * local_coefficient_[p].transpose();
+    // A block's matrices are fitted together, several in SIMD lanes (rotation_fit.h).
+    constexpr std::size_t kBlock = 64;
+    std::array<Eigen::Matrix3d, kBlock> covariance;
+    std::array<RotationFit, kBlock> fits;
+    for (std::size_t first = begin; first < end; first += kBlock) {
+      const std::size_t block = std::min(kBlock, end - first);
+      for (std::size_t k = 0; k < block; ++k) {
+        // A = Σ p cᵀ, entry by entry: nine independent sums (Eigen's 3×3 outer product is slower).
+        double a[3][3] = {};
+        for (std::size_t p = local_start_[first + k]; p < local_start_[first + k + 1]; ++p) {
+          const double* position = positions_.data() + 3 * static_cast<std::size_t>(local_vertex_[p]);
+          const Eigen::Vector3d& c = local_coefficient_[p];
+          for (int i = 0; i < 3; ++i) {
+            for (int j = 0; j < 3; ++j) a[i][j] += position[i] * c[j];
+          }
+        }
+        for (int i = 0; i < 3; ++i) {
+          for (int j = 0; j < 3; ++j) covariance[k](i, j) = a[i][j];
+        }
       }
-      RotationFit fit = fit_rotation(a, start_rotations[i], kRotationTolerance, steps);
-      unlimited += fit.objective;
-      if (turn_axis_) keep_turns(i, a, start_rotations[i], fit);
-      rotations[i] = fit.rotation;
-      sum += fit.objective;
+      hdeform::fit_rotations(std::span(covariance.data(), block), std::span(start_rotations.data() + first, block), std::span(fits.data(), block),
+                             kRotationTolerance, steps);
+      for (std::size_t k = 0; k < block; ++k) {
+        const std::size_t i = first + k;
+        RotationFit& fit = fits[k];
+        unlimited += fit.objective;
+        if (turn_axis_) keep_turns(i, covariance[k], start_rotations[i], fit);
+        rotations[i] = fit.rotation;
+        sum += fit.objective;
+      }
     }
     partial_[chunk] = sum;
     partial_[chunks + chunk] = unlimited;
