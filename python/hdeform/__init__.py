@@ -20,12 +20,14 @@ from ._core import (  # noqa: F401
     InputError,
     SolveError,
     Transform,
+    add_relief,
     correspondence,
     harmonic_field,
     has_render,
     read_mesh,
     render,
     shape,
+    subdivide,
     transfer,
     triangulate,
     write_mesh,
@@ -33,8 +35,8 @@ from ._core import (  # noqa: F401
 from ._core import _cotangent_laplacian_csc
 
 __all__ = [
-    "Deformer", "InputError", "SolveError", "Transform", "correspondence", "cotangent_laplacian", "harmonic_field",
-    "has_render", "read_mesh", "render", "shape", "transfer", "triangulate", "write_mesh",
+    "Deformer", "InputError", "SolveError", "Transform", "add_relief", "correspondence", "cotangent_laplacian",
+    "harmonic_field", "has_render", "read_mesh", "render", "shape", "subdivide", "transfer", "triangulate", "write_mesh",
 ]
 
 

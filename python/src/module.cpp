@@ -25,6 +25,7 @@
 #include "hdeform/laplacian.h"
 #include "hdeform/mesh_io.h"
 #include "hdeform/shapes.h"
+#include "hdeform/subdivision.h"
 #include "hdeform/transfer.h"
 #include "commands/cli_support.h"
 #ifdef HDEFORM_WITH_ENGINE
@@ -376,6 +377,42 @@ py::array harmonic_field_binding(const py::object& positions, const py::object& 
   return owning_array(std::move(field));
 }
 
+// Midpoint subdivision, `levels` times, with vertex sets carried over (subdivision.h).
+py::tuple subdivide_binding(const py::object& positions, const py::object& triangles, int levels, const py::object& sets) {
+  if (levels < 0 || levels > 4) throw py::value_error("levels must be between 0 and 4 (each multiplies the triangles by four)");
+  Mesh mesh = mesh_argument(positions, triangles, "mesh");
+  std::vector<std::vector<int>> carried;
+  for (const py::handle set : sets) {
+    const std::string name = "sets[" + std::to_string(carried.size()) + "]";
+    carried.push_back(indices_argument(set, name));
+    for (const int v : carried.back()) {
+      if (v < 0 || v >= mesh.vertex_count()) {
+        throw InputError(name + ": vertex " + std::to_string(v) + " out of range (the mesh has " + std::to_string(mesh.vertex_count()) + " vertices)");
+      }
+    }
+  }
+  {
+    const py::gil_scoped_release unlocked;
+    for (int level = 0; level < levels; ++level) {
+      Subdivision subdivision = subdivide(mesh);
+      for (auto& set : carried) set = subdivided_set(set, subdivision);
+      mesh = std::move(subdivision.mesh);
+    }
+  }
+  py::list out_sets;
+  for (const auto& set : carried) out_sets.append(index_array(set));
+  return py::make_tuple(owning_array(std::move(mesh.positions)), owning_array(std::move(mesh.triangles)), out_sets);
+}
+
+py::array add_relief_binding(const py::object& positions, const py::object& triangles, double amplitude) {
+  Mesh mesh = mesh_argument(positions, triangles, "mesh");
+  {
+    const py::gil_scoped_release unlocked;
+    add_relief(mesh, amplitude);
+  }
+  return owning_array(std::move(mesh.positions));
+}
+
 struct TransferArguments {
   Mesh source;
   Mesh target;
@@ -626,6 +663,15 @@ refinement['converged'] gives the same bits as deform(T, refine='auto').)doc")
         "A built-in shape ('cactus', 'bar', 'cylinder', 'sphere'; resolution: segments around, at least 8) and its "
         "demo edit, a dict: 'V' (n, 3) float64, 'F' (m, 3) int32, 'fixed' (k,) int32, 'handles' a list of int32 arrays, "
         "'transform' a Transform");
+  m.def("subdivide", &subdivide_binding, py::arg("V"), py::arg("F"), py::arg("levels") = 1, py::arg("sets") = py::list(),
+        "Every triangle split into four at its edges' midpoints, levels times (0 to 4): (V, F, sets). The original "
+        "vertices keep their positions and indices, the new ones follow; triangle t becomes 4t .. 4t+3. sets: a list of "
+        "1-D integer arrays (fixed vertices, handles) carried over, a new vertex belonging to a set where both ends of "
+        "its edge do; returned as int32 arrays. What hdeform bench --subdivide does");
+  m.def("add_relief", &add_relief_binding, py::arg("V"), py::arg("F"), py::arg("amplitude"),
+        "V with every vertex moved along its normal by amplitude times the bounding box's diagonal times a fixed pattern "
+        "of three frequencies (at most 1.75 in size): detail for measuring at scale, as hdeform bench --relief. An "
+        "(n, 3) float64 array; amplitude 0 returns V unchanged; a negative or non-finite amplitude raises hdeform.InputError");
   m.def("_cotangent_laplacian_csc", &laplacian_binding, py::arg("V"), py::arg("F"));
   m.def("harmonic_field", &harmonic_field_binding, py::arg("V"), py::arg("F"), py::arg("sources"), py::arg("sinks"),
         py::arg("backend") = std::string(to_string(default_backend())), "The harmonic field, an (n,) float64 array: 1 at the sources, 0 at the sinks (1-D integer arrays or lists), "

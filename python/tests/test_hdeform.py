@@ -269,6 +269,58 @@ def test_a_mesh_corresponds_to_itself():
     assert distance.max() == 0.0 and not mismatch.any()
 
 
+def triangle_areas(V, F):
+    return 0.5 * np.linalg.norm(np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]), axis=1)
+
+
+def test_subdivision_splits_each_triangle_at_its_midpoints_and_carries_the_sets():
+    cactus = hdeform.shape("cactus", 16)
+    V, F, fixed, handle = cactus["V"], cactus["F"], cactus["fixed"], cactus["handles"][0]
+    edges = {tuple(sorted((int(a), int(b)))) for t in F for a, b in ((t[0], t[1]), (t[1], t[2]), (t[2], t[0]))}
+    V2, F2, (fixed2, handle2) = hdeform.subdivide(V, F, levels=1, sets=[fixed, handle])
+    assert len(V2) == len(V) + len(edges) and len(F2) == 4 * len(F)
+    assert np.array_equal(V2[: len(V)], V), "the original vertices keep their positions and indices"
+    # Triangle t becomes (a, ab, ca), (ab, b, bc), (ca, bc, c), (ab, bc, ca).
+    a, b, c = F[:, 0], F[:, 1], F[:, 2]
+    ab, bc, ca = F2[1::4, 0], F2[1::4, 2], F2[0::4, 2]
+    for middle, (p, q) in ((ab, (a, b)), (bc, (b, c)), (ca, (c, a))):
+        assert np.allclose(V2[middle], 0.5 * (V[p] + V[q]), rtol=0, atol=1e-15)
+    assert np.allclose(triangle_areas(V2, F2).reshape(-1, 4).sum(axis=1), triangle_areas(V, F), rtol=1e-12)
+    for original, carried in ((fixed, fixed2), (handle, handle2)):
+        member = np.zeros(len(V2), bool)
+        member[original] = True
+        for middle, (p, q) in ((ab, (a, b)), (bc, (b, c)), (ca, (c, a))):
+            expected = member[p] & member[q]
+            assert np.array_equal(np.isin(middle, carried), expected), "a new vertex is in a set where both ends of its edge are"
+        assert carried.dtype == np.int32 and set(original) <= set(carried)
+    V3, F3, _ = hdeform.subdivide(V, F, levels=2)
+    assert len(F3) == 16 * len(F)
+    V0, F0, (same,) = hdeform.subdivide(V, F, levels=0, sets=[fixed])
+    assert np.array_equal(V0, V) and np.array_equal(F0, F) and np.array_equal(same, fixed)
+    with pytest.raises(ValueError, match="levels"):
+        hdeform.subdivide(V, F, levels=5)
+    with pytest.raises(hdeform.InputError, match=r"sets\[1\]: vertex 99999 out of range"):
+        hdeform.subdivide(V, F, sets=[fixed, [99999]])
+
+
+def test_relief_moves_vertices_along_the_normal_by_at_most_its_amplitude():
+    sphere = hdeform.shape("sphere", 32)
+    V, F = sphere["V"], sphere["F"]
+    assert np.array_equal(hdeform.add_relief(V, F, 0.0), V)
+    diagonal = np.linalg.norm(V.max(axis=0) - V.min(axis=0))
+    moved = hdeform.add_relief(V, F, 0.01)
+    offset = moved - V
+    length = np.linalg.norm(offset, axis=1)
+    assert length.max() <= 1.75 * 0.01 * diagonal and length.max() > 0.5 * 0.01 * diagonal
+    # On a sphere about its centre the normal is radial: the offset lies along the radius.
+    radial = V - V.mean(axis=0)
+    radial /= np.linalg.norm(radial, axis=1, keepdims=True)
+    along = np.abs(np.einsum("ij,ij->i", offset, radial))
+    assert np.allclose(along, length, rtol=0, atol=1e-3 * 0.01 * diagonal)
+    with pytest.raises(hdeform.InputError, match="amplitude"):
+        hdeform.add_relief(V, F, -0.001)
+
+
 def test_meshes_round_trip_through_obj_and_ply(tmp_path):
     bar = hdeform.shape("bar", 12)
     for name in ["bar.obj", "bar.ply"]:

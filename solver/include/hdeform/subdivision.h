@@ -25,7 +25,7 @@ struct Subdivision {
 Subdivision subdivide(const Mesh& mesh);
 
 /// A vertex set of the original mesh on the subdivided one: its vertices, and every new vertex
-/// whose two parents are both in it (ascending).
+/// whose two parents are both in it (ascending). Throws InputError for a vertex out of range.
 std::vector<int> subdivided_set(const std::vector<int>& vertices, const Subdivision& subdivision);
 
 /// Fixed set, handles and region of interest carried over, each by subdivided_set.

@@ -45,7 +45,13 @@ Subdivision subdivide(const Mesh& mesh) {
 
 std::vector<int> subdivided_set(const std::vector<int>& vertices, const Subdivision& subdivision) {
   std::vector<bool> member(static_cast<std::size_t>(subdivision.original_vertices), false);
-  for (const int v : vertices) member[static_cast<std::size_t>(v)] = true;
+  for (const int v : vertices) {
+    if (v < 0 || v >= subdivision.original_vertices) {
+      throw InputError("vertex " + std::to_string(v) + " out of range (the mesh has " + std::to_string(subdivision.original_vertices) +
+                       " vertices)");
+    }
+    member[static_cast<std::size_t>(v)] = true;
+  }
   std::vector<int> result(vertices);
   std::sort(result.begin(), result.end());
   for (std::size_t i = 0; i < subdivision.parents.size(); ++i) {
