@@ -6,7 +6,10 @@
 #include <stdexcept>
 #include <string>
 
+#include "target_clones.h"
+
 namespace hdeform {
+namespace rotation_lanes {
 namespace {
 
 // Newton's iteration is written once, for a lane type T: `double` (one problem) or a vector of
@@ -18,7 +21,7 @@ namespace {
 using Lanes = double __attribute__((vector_size(32)));
 // The lanes' helpers are inlined into their callers, so that the AVX2 clone below compiles them
 // for AVX2 (a call would run them as compiled for the baseline).
-#define HDEFORM_LANE_INLINE [[gnu::always_inline]] inline
+#define HDEFORM_LANE_INLINE [[gnu::always_inline]] inline  // #undef at the end of the file
 using LaneMask = long __attribute__((vector_size(32)));
 constexpr int kLanes = 4;
 
@@ -176,13 +179,7 @@ RotationFit fit_one(const Eigen::Matrix3d& a, const Eigen::Matrix3d& start, doub
 
 // Compiled twice, for AVX2 and for the baseline (where each four-lane operation is two SSE2 ones);
 // the loader picks the one the CPU runs. AVX2 alone brings no FMA, so both give the same bits.
-#if defined(__x86_64__) && defined(__GNUC__) && !defined(HDEFORM_NO_TARGET_CLONES)
-#define HDEFORM_LANE_CLONES __attribute__((target_clones("avx2", "default")))
-#else
-#define HDEFORM_LANE_CLONES
-#endif
-
-HDEFORM_LANE_CLONES
+HDEFORM_TARGET_CLONES("avx2", "default")
 void fit_lanes(const Eigen::Matrix3d* a, const Eigen::Matrix3d* start, RotationFit* fits, std::size_t count, double tolerance, int max_steps) {
   std::size_t first = 0;
   for (; first + kLanes <= count; first += kLanes) {
@@ -211,6 +208,10 @@ void fit_lanes(const Eigen::Matrix3d* a, const Eigen::Matrix3d* start, RotationF
 }
 
 }  // namespace
+}  // namespace rotation_lanes
+
+using rotation_lanes::fit_lanes;
+using rotation_lanes::fit_one;
 
 Eigen::Matrix3d closest_rotation_svd(const Eigen::Matrix3d& a) {
   const Eigen::JacobiSVD<Eigen::Matrix3d> svd(a, Eigen::ComputeFullU | Eigen::ComputeFullV);
@@ -238,3 +239,5 @@ void fit_rotations(std::span<const Eigen::Matrix3d> a, std::span<const Eigen::Ma
 }
 
 }  // namespace hdeform
+
+#undef HDEFORM_LANE_INLINE

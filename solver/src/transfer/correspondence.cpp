@@ -14,6 +14,7 @@
 #include <tbb/parallel_reduce.h>
 
 #include "hdeform/trace.h"
+#include "target_clones.h"
 
 namespace hdeform {
 namespace {
@@ -31,20 +32,6 @@ constexpr double kFloatTiny = 0x1p-149;  // its smallest subnormal: the most an 
 // The double distances compared against each other are each within this factor of the exact one
 // (about k·2⁻⁵³): a screen lets through anything within it of the best.
 constexpr double kDoubleSlack = 1e-9;
-
-// The clones are chosen by an ifunc resolver that runs while the program is being relocated,
-// before a sanitizer's runtime is up; instrumented, it crashes there (ThreadSanitizer did). The
-// sanitizer builds run the baseline alone: the same lanes, the same arithmetic.
-#if defined(__SANITIZE_ADDRESS__) || defined(__SANITIZE_THREAD__)
-#define HDEFORM_LANE_CLONES
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer) || __has_feature(thread_sanitizer)
-#define HDEFORM_LANE_CLONES
-#endif
-#endif
-#ifndef HDEFORM_LANE_CLONES
-#define HDEFORM_LANE_CLONES [[gnu::target_clones("avx512f", "avx2", "default")]]
-#endif
 
 // Sixteen floats side by side: GCC lowers their arithmetic to the instruction set of the clone it
 // compiles (one AVX-512 register, two AVX2 or four SSE2 ones), lane by lane.
@@ -76,7 +63,7 @@ inline void keep_positive(Lanes& lanes) {
 
 // Σ (a_c − b_c)² over `padded` components (a multiple of kBlock), the running sum checked after
 // each block: past `limit`, a partial sum above it (a float sum of squares never decreases).
-HDEFORM_LANE_CLONES float squared_distance_lanes(const float* a, const float* b, int padded, float limit) {
+HDEFORM_TARGET_CLONES("avx512f", "avx2", "default") float squared_distance_lanes(const float* a, const float* b, int padded, float limit) {
   Lanes sum = {};
   float total = 0.0F;
   for (int c = 0; c < padded; c += kBlock) {
@@ -94,7 +81,7 @@ HDEFORM_LANE_CLONES float squared_distance_lanes(const float* a, const float* b,
 }
 
 // Σ gap_c² from the query to the box [low, high] over `padded` components, likewise.
-HDEFORM_LANE_CLONES float box_distance_lanes(const float* query, const float* low, const float* high, int padded, float limit) {
+HDEFORM_TARGET_CLONES("avx512f", "avx2", "default") float box_distance_lanes(const float* query, const float* low, const float* high, int padded, float limit) {
   Lanes sum = {};
   float total = 0.0F;
   for (int c = 0; c < padded; c += kBlock) {
