@@ -206,6 +206,34 @@ TEST(DetailEncoding, ARigidMotionOfTheBaseMovesTheDetailRigidly) {
   EXPECT_LE((rebuilt - expected).rowwise().norm().maxCoeff(), 1e-9 * relief.diagonal);
 }
 
+TEST(DetailEncoding, AWorkspaceGivesTheSameBitsAndServesOnlyItsEncoding) {
+  const Relief relief = bar_with_relief();
+  const BaseMesh base = simplify_to_base(relief.mesh, relief.mesh.vertex_count() / 10);
+  const DetailEncoding encoding(relief.mesh, base);
+  Eigen::MatrixXd bent = base.mesh.positions;
+  for (Eigen::Index j = 0; j < bent.rows(); ++j) {
+    const Eigen::Matrix3d turn = Eigen::AngleAxisd(0.8 * bent(j, 2), Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    bent.row(j) = (turn * bent.row(j).transpose()).transpose();
+  }
+  Eigen::MatrixXd alone, in_workspace;
+  encoding.reconstruct(bent, alone);
+  DetailEncoding::Workspace workspace = encoding.workspace();
+  for (int round = 0; round < 2; ++round) {  // reused: nothing of the first rebuild is carried over
+    encoding.reconstruct(round == 0 ? base.mesh.positions : bent, in_workspace, workspace);
+  }
+  EXPECT_TRUE((in_workspace.array() == alone.array()).all());
+  // A base triangle squeezed to a point has no frame: its fine vertices keep their foot, finite.
+  Eigen::MatrixXd squeezed = bent;
+  for (int k = 1; k < 3; ++k) squeezed.row(base.mesh.triangles(0, k)) = squeezed.row(base.mesh.triangles(0, 0));
+  encoding.reconstruct(squeezed, in_workspace, workspace);
+  EXPECT_TRUE(in_workspace.allFinite());
+  DetailEncoding::Workspace empty;
+  EXPECT_THROW(encoding.reconstruct(bent, in_workspace, empty), std::invalid_argument);
+  const DetailEncoding other(relief.mesh, simplify_to_base(relief.mesh, relief.mesh.vertex_count() / 4));
+  DetailEncoding::Workspace others = other.workspace();
+  EXPECT_THROW(encoding.reconstruct(bent, in_workspace, others), std::invalid_argument);
+}
+
 TEST(DetailEncoding, ValuesAreCarriedLinearly) {
   // A linear function on the base, interpolated over the feet, is that function at each foot:
   // at base vertices exactly, elsewhere within the detail's length times its slope.

@@ -246,6 +246,7 @@ class Deformer {
   /// Multiresolution: the deformer of the base, and its last positions.
   std::unique_ptr<Deformer> base_;
   Eigen::MatrixXd base_positions_;
+  DetailEncoding::Workspace reconstruction_workspace_;
 };
 
 }  // namespace hdeform

@@ -10,6 +10,7 @@
 /// sits exactly where its fine vertex does, and a fine vertex set reaches the base through them.
 #include <Eigen/Core>
 #include <array>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -76,9 +77,30 @@ class DetailEncoding {
   /// The fine mesh on a deformed base (base_positions: the base's vertex count × 3): each fine
   /// vertex moves by the change of its foot plus its detail in the triangle's frame, so with the
   /// base at rest every vertex is its rest position to the last bit, and a rigid motion of the
-  /// base moves it rigidly. Base vertices take the base's positions. Parallel; allocation-free
-  /// once `fine_positions` has the fine size.
+  /// base moves it rigidly. Base vertices take the base's positions. Parallel; allocates its
+  /// workspace (the overload below does not).
   void reconstruct(const Eigen::MatrixXd& base_positions, Eigen::MatrixXd& fine_positions) const;
+
+  /// What a rebuild computes once per base triangle before the fine vertices on it: the
+  /// caller's, so that one encoding serves several deformers at once and a rebuild allocates
+  /// nothing. Made by workspace(); movable.
+  class Workspace {
+   public:
+    Workspace();  ///< empty: for no encoding until assigned one from workspace()
+    ~Workspace();
+    Workspace(Workspace&&) noexcept;
+    Workspace& operator=(Workspace&&) noexcept;
+
+   private:
+    friend class DetailEncoding;
+    struct Scales;
+    std::unique_ptr<Scales> scales_;
+  };
+  /// A workspace sized for this encoding's base.
+  Workspace workspace() const;
+  /// reconstruct() in `workspace` (from workspace(); throws std::invalid_argument for another
+  /// encoding's), allocation-free once `fine_positions` has the fine size.
+  void reconstruct(const Eigen::MatrixXd& base_positions, Eigen::MatrixXd& fine_positions, Workspace& workspace) const;
 
   /// Per-vertex values of the base carried to the fine mesh, linearly over the foot triangles.
   Eigen::VectorXd interpolate(const Eigen::VectorXd& base_values) const;

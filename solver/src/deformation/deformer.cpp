@@ -380,7 +380,7 @@ void Deformer::deform(std::span<const HandleTransform> transforms, Eigen::Matrix
   if (base_) {
     base_->deform(transforms, base_positions_, start);
     const auto detail_began = Clock::now();
-    operators_->multiresolution->encoding.reconstruct(base_positions_, positions);
+    operators_->multiresolution->encoding.reconstruct(base_positions_, positions, reconstruction_workspace_);
     write_constrained(transforms, positions);
     last_update_ = base_->last_update();
     last_update_.detail_ms = milliseconds_since(detail_began);
@@ -463,7 +463,7 @@ int Deformer::refine(Eigen::MatrixXd& positions, int max_iterations) {
   if (base_) {
     const int iterations = base_->refine(base_positions_, max_iterations);
     if (iterations > 0) {
-      operators_->multiresolution->encoding.reconstruct(base_positions_, positions);
+      operators_->multiresolution->encoding.reconstruct(base_positions_, positions, reconstruction_workspace_);
       write_constrained(edited_, positions);
     }
     return iterations;

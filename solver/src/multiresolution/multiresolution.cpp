@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <numeric>
 #include <span>
 #include <utility>
@@ -25,14 +26,25 @@ std::uint64_t edge_key(int a, int b) {
   return (static_cast<std::uint64_t>(static_cast<std::uint32_t>(a)) << 32) | static_cast<std::uint32_t>(b);
 }
 
-// The orthonormal frame of triangle (a, b, c): columns first edge, normal × first edge, normal.
-Eigen::Matrix3d triangle_frame(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c) {
-  const Eigen::Vector3d first = (b - a).normalized();
-  const Eigen::Vector3d normal = (b - a).cross(c - a).normalized();
+// A triangle's frame, from its first edge e = b − a and normal n = e × (c − a): columns e/|e|,
+// (n × e)/(|n| |e|), n/|n|. The reciprocal lengths are a triangle's (DetailEncoding::Workspace:
+// once per base triangle per rebuild), the rest is each fine vertex's, without a square root or a
+// division. A degenerate triangle's zero column stays zero.
+struct FrameScales {
+  double edge = 0.0, normal = 0.0;  // 1/|e|, 1/|n|; 0 for a zero length
+};
+[[gnu::always_inline]] inline FrameScales frame_scales(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c) {
+  const Eigen::Vector3d edge = b - a;
+  const double edge_length = edge.norm(), normal_length = edge.cross(c - a).norm();
+  return {edge_length > 0.0 ? 1.0 / edge_length : 0.0, normal_length > 0.0 ? 1.0 / normal_length : 0.0};
+}
+[[gnu::always_inline]] inline Eigen::Matrix3d triangle_frame(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c,
+                                                             const FrameScales& scales) {
+  const Eigen::Vector3d edge = b - a;
   Eigen::Matrix3d frame;
-  frame.col(0) = first;
-  frame.col(1) = normal.cross(first);
-  frame.col(2) = normal;
+  frame.col(0) = edge * scales.edge;
+  frame.col(2) = edge.cross(c - a) * scales.normal;
+  frame.col(1) = frame.col(2).cross(frame.col(0));
   return frame;
 }
 
@@ -65,10 +77,10 @@ Eigen::Vector2d closest_point_weights(const Eigen::Vector3d& p, const Eigen::Vec
 // The foot and the frame of a fine vertex on base triangle (a, b, c) with weights w of b and c.
 // One function for encoding, the rest reconstruction and every later one: the same arithmetic, so
 // the rest base reproduces its own reconstruction bit for bit.
-Eigen::Vector3d reconstructed(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c, double wb, double wc,
-                              const Eigen::Vector3d& detail) {
+[[gnu::always_inline]] inline Eigen::Vector3d reconstructed(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c,
+                                                             const FrameScales& scales, double wb, double wc, const Eigen::Vector3d& detail) {
   const Eigen::Vector3d foot = a + wb * (b - a) + wc * (c - a);
-  return foot + triangle_frame(a, b, c) * detail;
+  return foot + triangle_frame(a, b, c, scales) * detail;
 }
 
 // Vertex → triangles, compressed rows.
@@ -290,19 +302,49 @@ DetailEncoding::DetailEncoding(const Mesh& fine, const BaseMesh& base)
       const Eigen::Vector3d foot = a + best_weights[0] * (b - a) + best_weights[1] * (c - a);
       foot_triangle_[v] = best;
       barycentric_.row(vertex) = best_weights.transpose();
-      detail_.row(vertex) = (triangle_frame(a, b, c).transpose() * (p - foot)).transpose();
-      rest_reconstruction_.row(vertex) = reconstructed(a, b, c, best_weights[0], best_weights[1], detail_.row(vertex).transpose()).transpose();
+      const FrameScales scales = frame_scales(a, b, c);
+      detail_.row(vertex) = (triangle_frame(a, b, c, scales).transpose() * (p - foot)).transpose();
+      rest_reconstruction_.row(vertex) = reconstructed(a, b, c, scales, best_weights[0], best_weights[1], detail_.row(vertex).transpose()).transpose();
     }
   });
   for (std::size_t v = 0; v < n; ++v) largest_detail_ = std::max(largest_detail_, detail_.row(static_cast<Eigen::Index>(v)).norm());
 }
 
+DetailEncoding::Workspace::Workspace() = default;
+DetailEncoding::Workspace::~Workspace() = default;
+DetailEncoding::Workspace::Workspace(Workspace&&) noexcept = default;
+DetailEncoding::Workspace& DetailEncoding::Workspace::operator=(Workspace&&) noexcept = default;
+
+struct DetailEncoding::Workspace::Scales {
+  std::vector<FrameScales> of_triangle;
+};
+
+DetailEncoding::Workspace DetailEncoding::workspace() const {
+  Workspace workspace;
+  workspace.scales_ = std::make_unique<Workspace::Scales>();
+  workspace.scales_->of_triangle.resize(static_cast<std::size_t>(base_triangles_.rows()));
+  return workspace;
+}
+
 void DetailEncoding::reconstruct(const Eigen::MatrixXd& base_positions, Eigen::MatrixXd& fine_positions) const {
+  Workspace own = workspace();
+  reconstruct(base_positions, fine_positions, own);
+}
+
+void DetailEncoding::reconstruct(const Eigen::MatrixXd& base_positions, Eigen::MatrixXd& fine_positions, Workspace& workspace) const {
   if (base_positions.rows() != base_count_ || base_positions.cols() != 3) {
     throw std::invalid_argument("DetailEncoding::reconstruct: the base positions are " + std::to_string(base_positions.rows()) + "×" +
                                 std::to_string(base_positions.cols()) + " for a base of " + std::to_string(base_count_) + " vertices");
   }
+  if (!workspace.scales_ || workspace.scales_->of_triangle.size() != static_cast<std::size_t>(base_triangles_.rows())) {
+    throw std::invalid_argument("DetailEncoding::reconstruct: the workspace is not this encoding's (DetailEncoding::workspace())");
+  }
   const trace::Scope traced("fine mesh from the base", "update");
+  auto corner = [&](Eigen::Index t, int k) -> Eigen::Vector3d { return base_positions.row(base_triangles_(t, k)).transpose(); };
+  std::vector<FrameScales>& scales = workspace.scales_->of_triangle;
+  tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, base_triangles_.rows(), kVertexGrain), [&](const auto& range) {
+    for (Eigen::Index t = range.begin(); t != range.end(); ++t) scales[static_cast<std::size_t>(t)] = frame_scales(corner(t, 0), corner(t, 1), corner(t, 2));
+  });
   fine_positions.resize(fine_count(), 3);
   tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, fine_count(), kVertexGrain), [&](const auto& range) {
     for (Eigen::Index v = range.begin(); v != range.end(); ++v) {
@@ -313,10 +355,8 @@ void DetailEncoding::reconstruct(const Eigen::MatrixXd& base_positions, Eigen::M
       } else if (t < 0) {
         fine_positions.row(v) = rest_positions_.row(v);
       } else {
-        const Eigen::Vector3d a = base_positions.row(base_triangles_(t, 0)).transpose();
-        const Eigen::Vector3d b = base_positions.row(base_triangles_(t, 1)).transpose();
-        const Eigen::Vector3d c = base_positions.row(base_triangles_(t, 2)).transpose();
-        const Eigen::Vector3d now = reconstructed(a, b, c, barycentric_(v, 0), barycentric_(v, 1), detail_.row(v).transpose());
+        const Eigen::Vector3d now = reconstructed(corner(t, 0), corner(t, 1), corner(t, 2), scales[static_cast<std::size_t>(t)], barycentric_(v, 0),
+                                                  barycentric_(v, 1), detail_.row(v).transpose());
         fine_positions.row(v) = rest_positions_.row(v) + (now.transpose() - rest_reconstruction_.row(v));
       }
     }
