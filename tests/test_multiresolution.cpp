@@ -285,6 +285,34 @@ TEST(Multiresolution, NothingMovedGivesTheMeshBackToTheLastBit) {
   EXPECT_TRUE((positions.array() == relief.mesh.positions.array()).all());
 }
 
+TEST(DetailEncoding, CoordinatesNearZeroComeBackToTheLastBitToo) {
+  // Where a rest coordinate is tiny beside the base's (1e-19 of a unit mesh), the reconstruction's
+  // rounding is larger than the coordinate itself, and rest − reconstruction rounds: those
+  // vertices must still come back exactly, and move like their neighbours.
+  Relief relief = bar_with_relief();
+  const double limit = 1e-3 * relief.diagonal;
+  int tiny = 0;
+  for (Eigen::Index v = 0; v < relief.mesh.vertex_count(); ++v) {
+    for (int k = 0; k < 3; ++k) {
+      const double x = relief.mesh.positions(v, k);
+      if (x != 0.0 && std::abs(x) < limit) {
+        relief.mesh.positions(v, k) = std::copysign(1e-19 * (1 + (v % 7) / 7.0), x);
+        ++tiny;
+      }
+    }
+  }
+  ASSERT_GT(tiny, 20);
+  const BaseMesh base = simplify_to_base(relief.mesh, relief.mesh.vertex_count() / 10);
+  const DetailEncoding encoding(relief.mesh, base);
+  Eigen::MatrixXd rebuilt;
+  encoding.reconstruct(base.mesh.positions, rebuilt);
+  EXPECT_TRUE((rebuilt.array() == relief.mesh.positions.array()).all());
+  const Eigen::Matrix3d rotation = Eigen::AngleAxisd(0.7, Eigen::Vector3d(0.2, 0.9, -0.4).normalized()).toRotationMatrix();
+  encoding.reconstruct(base.mesh.positions * rotation.transpose(), rebuilt);
+  EXPECT_LE((rebuilt - relief.mesh.positions * rotation.transpose()).rowwise().norm().maxCoeff(), 1e-9 * relief.diagonal);
+  for (Eigen::Index v = 0; v < relief.mesh.vertex_count(); ++v) EXPECT_GE(encoding.base_vertex(static_cast<int>(v)), -1);
+}
+
 TEST(Multiresolution, FixedAndHandleVerticesEndWhereTheirConstraintsPutThem) {
   const Relief relief = bar_with_relief();
   DeformerOptions options = multiresolution(relief.mesh.vertex_count() / 8);

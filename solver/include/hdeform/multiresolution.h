@@ -9,6 +9,7 @@
 /// The base's vertices are fine vertices (the simplifier only collapses edges), so every base vertex
 /// sits exactly where its fine vertex does, and a fine vertex set reaches the base through them.
 #include <Eigen/Core>
+#include <algorithm>
 #include <array>
 #include <memory>
 #include <string>
@@ -106,7 +107,7 @@ class DetailEncoding {
   Eigen::VectorXd interpolate(const Eigen::VectorXd& base_values) const;
 
   /// The base vertex of a fine vertex, or −1 when it has none.
-  int base_vertex(int fine_vertex) const { return base_of_fine_[static_cast<std::size_t>(fine_vertex)]; }
+  int base_vertex(int fine_vertex) const { return std::max(base_of_fine_[static_cast<std::size_t>(fine_vertex)], -1); }
   /// The corners (base vertices) of a fine vertex's foot triangle; all −1 for a vertex no triangle
   /// references.
   std::array<int, 3> foot_corners(int fine_vertex) const;
@@ -116,14 +117,23 @@ class DetailEncoding {
  private:
   Eigen::Index base_count_ = 0;
   Eigen::MatrixXi base_triangles_;
-  std::vector<int> base_of_fine_;
+  std::vector<int> base_of_fine_;  ///< −1: not a base vertex; kInexactRest: nor, and in inexact_rest_
   std::vector<int> foot_triangle_;  ///< −1: unreferenced, kept at rest
   Eigen::Matrix<double, Eigen::Dynamic, 2, Eigen::RowMajor> barycentric_;  ///< weights of corners 1 and 2
   Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> detail_;
-  /// The reconstruction's own arithmetic on the rest base: subtracted from the deformed one, so
-  /// that the rest base gives back exactly the rest positions.
-  Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> rest_reconstruction_;
-  Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> rest_positions_;
+  /// Added to the reconstruction: the rest position minus the reconstruction's own arithmetic on
+  /// the rest base, so that the rest base gives back the rest positions to the last bit (a vertex
+  /// no triangle references: its rest position). One array rather than both: the rebuild of
+  /// millions of vertices is bound by what it reads.
+  Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> rest_correction_;
+  static constexpr int kInexactRest = -2;
+  /// A vertex whose rest position is not its rest reconstruction plus their difference (a
+  /// coordinate near zero rounds): rebuilt as rest + (now − rest reconstruction). By vertex.
+  struct InexactRest {
+    int vertex;
+    Eigen::Vector3d rest, rest_reconstruction;
+  };
+  std::vector<InexactRest> inexact_rest_;
   double largest_detail_ = 0.0;
 };
 

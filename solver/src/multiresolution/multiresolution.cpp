@@ -232,8 +232,8 @@ DetailEncoding::DetailEncoding(const Mesh& fine, const BaseMesh& base)
   foot_triangle_.assign(n, -1);
   barycentric_.setZero(fine.vertex_count(), 2);
   detail_.setZero(fine.vertex_count(), 3);
-  rest_positions_ = fine.positions;
-  rest_reconstruction_ = fine.positions;
+  // Until every foot is known: the reconstruction's own arithmetic on the rest base.
+  Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> rest_reconstruction = fine.positions;
   const auto& base_positions = base.mesh.positions;
   auto corner = [&](int t, int k) -> Eigen::Vector3d { return base_positions.row(base_triangles_(t, k)).transpose(); };
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, kVertexGrain), [&](const auto& range) {
@@ -304,10 +304,30 @@ DetailEncoding::DetailEncoding(const Mesh& fine, const BaseMesh& base)
       barycentric_.row(vertex) = best_weights.transpose();
       const FrameScales scales = frame_scales(a, b, c);
       detail_.row(vertex) = (triangle_frame(a, b, c, scales).transpose() * (p - foot)).transpose();
-      rest_reconstruction_.row(vertex) = reconstructed(a, b, c, scales, best_weights[0], best_weights[1], detail_.row(vertex).transpose()).transpose();
+      rest_reconstruction.row(vertex) = reconstructed(a, b, c, scales, best_weights[0], best_weights[1], detail_.row(vertex).transpose()).transpose();
     }
   });
   for (std::size_t v = 0; v < n; ++v) largest_detail_ = std::max(largest_detail_, detail_.row(static_cast<Eigen::Index>(v)).norm());
+
+  // The rebuild adds rest − rest reconstruction to its own reconstruction: on the rest base that
+  // is the rest position to the last bit wherever the difference is exact (Sterbenz: the two agree
+  // to rounding), which is checked here. Where a coordinate is near zero it may round; such a
+  // vertex keeps both and is rebuilt as rest + (now − rest reconstruction).
+  rest_correction_.resize(fine.vertex_count(), 3);
+  for (std::size_t v = 0; v < n; ++v) {
+    const auto row = static_cast<Eigen::Index>(v);
+    if (base_of_fine_[v] >= 0) {
+      rest_correction_.row(row).setZero();
+    } else if (foot_triangle_[v] < 0) {
+      rest_correction_.row(row) = fine.positions.row(row);
+    } else {
+      rest_correction_.row(row) = fine.positions.row(row) - rest_reconstruction.row(row);
+      if (!((rest_reconstruction.row(row) + rest_correction_.row(row)).array() == fine.positions.row(row).array()).all()) {
+        base_of_fine_[v] = kInexactRest;
+        inexact_rest_.push_back({static_cast<int>(v), fine.positions.row(row).transpose(), rest_reconstruction.row(row).transpose()});
+      }
+    }
+  }
 }
 
 DetailEncoding::Workspace::Workspace() = default;
@@ -350,14 +370,21 @@ void DetailEncoding::reconstruct(const Eigen::MatrixXd& base_positions, Eigen::M
     for (Eigen::Index v = range.begin(); v != range.end(); ++v) {
       const auto i = static_cast<std::size_t>(v);
       const int t = foot_triangle_[i];
-      if (base_of_fine_[i] >= 0) {
-        fine_positions.row(v) = base_positions.row(base_of_fine_[i]);
+      const int own = base_of_fine_[i];
+      if (own >= 0) {
+        fine_positions.row(v) = base_positions.row(own);
       } else if (t < 0) {
-        fine_positions.row(v) = rest_positions_.row(v);
+        fine_positions.row(v) = rest_correction_.row(v);
       } else {
         const Eigen::Vector3d now = reconstructed(corner(t, 0), corner(t, 1), corner(t, 2), scales[static_cast<std::size_t>(t)], barycentric_(v, 0),
                                                   barycentric_(v, 1), detail_.row(v).transpose());
-        fine_positions.row(v) = rest_positions_.row(v) + (now.transpose() - rest_reconstruction_.row(v));
+        if (own == kInexactRest) {
+          const auto inexact = std::lower_bound(inexact_rest_.begin(), inexact_rest_.end(), static_cast<int>(v),
+                                                [](const InexactRest& entry, int vertex) { return entry.vertex < vertex; });
+          fine_positions.row(v) = (inexact->rest + (now - inexact->rest_reconstruction)).transpose();
+        } else {
+          fine_positions.row(v) = now.transpose() + rest_correction_.row(v);
+        }
       }
     }
   });
