@@ -99,8 +99,9 @@ class DetailEncoding {
   };
   /// A workspace sized for this encoding's base.
   Workspace workspace() const;
-  /// reconstruct() in `workspace` (from workspace(); throws std::invalid_argument for another
-  /// encoding's), allocation-free once `fine_positions` has the fine size.
+  /// reconstruct() in `workspace` (from workspace(); throws std::invalid_argument for one sized
+  /// for another base), allocation-free once `fine_positions` has the fine size. Nothing of a
+  /// rebuild is carried to the next: one workspace may serve any encoding of the same base size.
   void reconstruct(const Eigen::MatrixXd& base_positions, Eigen::MatrixXd& fine_positions, Workspace& workspace) const;
 
   /// Per-vertex values of the base carried to the fine mesh, linearly over the foot triangles.

@@ -357,7 +357,7 @@ void DetailEncoding::reconstruct(const Eigen::MatrixXd& base_positions, Eigen::M
                                 std::to_string(base_positions.cols()) + " for a base of " + std::to_string(base_count_) + " vertices");
   }
   if (!workspace.scales_ || workspace.scales_->of_triangle.size() != static_cast<std::size_t>(base_triangles_.rows())) {
-    throw std::invalid_argument("DetailEncoding::reconstruct: the workspace is not this encoding's (DetailEncoding::workspace())");
+    throw std::invalid_argument("DetailEncoding::reconstruct: the workspace is sized for another base (DetailEncoding::workspace() makes one)");
   }
   const trace::Scope traced("fine mesh from the base", "update");
   auto corner = [&](Eigen::Index t, int k) -> Eigen::Vector3d { return base_positions.row(base_triangles_(t, k)).transpose(); };
