@@ -4,6 +4,8 @@
 #include "hdeform/mesh_io.h"
 #include "test_support.h"
 
+#include <cstdio>
+
 namespace hdeform {
 namespace {
 
@@ -40,6 +42,53 @@ TEST_P(BenchmarkCase, KeepsConstraintsExactAndStaysFinite) {
     EXPECT_GT(largest_move, 1e-3 * diagonal) << what;
     EXPECT_LT(largest_move, 3.0 * diagonal) << what;
   }
+}
+
+// The update and the refinement with the factor stored in single precision, against the double
+// factor: within 1e-10 of the bounding-box diagonal (the float factor alone is about 1e-7 off).
+void expect_single_precision_matches_double(const Mesh& mesh, const EditConstraints& constraints, const HandleTransform& transform) {
+  DeformerOptions options;
+  options.resolution = Resolution::Exact;
+  Deformer in_double(mesh, constraints, options);
+  options.precision = FactorPrecision::Single;
+  Deformer in_single(mesh, constraints, options);
+  const auto& factor = in_single.system().factor();
+  ASSERT_EQ(factor.precision(), FactorPrecision::Single) << factor.precision_note();
+  const double diagonal = bounding_box_diagonal(mesh.positions);
+  Eigen::MatrixXd expected, positions;
+  in_double.deform(std::span(&transform, 1), expected);
+  in_single.deform(std::span(&transform, 1), positions);
+  EXPECT_LE((positions - expected).cwiseAbs().maxCoeff(), 1e-10 * diagonal) << "update";
+  in_double.refine(expected, 5);
+  in_single.refine(positions, 5);
+  EXPECT_LE((positions - expected).cwiseAbs().maxCoeff(), 1e-10 * diagonal) << "refined";
+  const auto refinement = factor.refinement();
+  EXPECT_GE(refinement.corrections, refinement.solves);
+  EXPECT_LE(refinement.most_corrections, 3);
+  std::printf("%ld unknowns: %lld solves, %lld correction steps (at most %d in one), contraction %.2g, deviation %.2g of the diagonal\n",
+              static_cast<long>(factor.size()), static_cast<long long>(refinement.solves), static_cast<long long>(refinement.corrections),
+              refinement.most_corrections, refinement.contraction, (positions - expected).cwiseAbs().maxCoeff() / diagonal);
+}
+
+TEST_P(BenchmarkCase, SinglePrecisionFactorsMatchTheDoubleSolve) {
+  HDEFORM_REQUIRE_SHARED_MESHES();
+  const auto folder = test::shared_meshes() / "deformation-benchmark";
+  const std::string name = GetParam();
+  const Mesh mesh = read_obj(folder / (name + ".obj"));
+  EditConstraints constraints;
+  constraints.fixed = read_vertex_indices(folder / (name + "-fixed.txt"), mesh.vertex_count());
+  constraints.handles = {read_vertex_indices(folder / (name + "-handle.txt"), mesh.vertex_count())};
+  expect_single_precision_matches_double(mesh, constraints, read_handle_transform(folder / (name + "-transform.txt")));
+}
+
+TEST(Buddha, SinglePrecisionFactorsMatchTheDoubleSolve) {
+  HDEFORM_REQUIRE_SHARED_MESHES();
+  const auto folder = test::shared_meshes() / "buddha";
+  const Mesh mesh = read_obj(folder / "buddha-206k.obj");
+  EditConstraints constraints;
+  constraints.fixed = read_vertex_indices(folder / "buddha-206k-fixed.txt", mesh.vertex_count());
+  constraints.handles = {read_vertex_indices(folder / "buddha-206k-handle.txt", mesh.vertex_count())};
+  expect_single_precision_matches_double(mesh, constraints, read_handle_transform(folder / "buddha-206k-transform.txt"));
 }
 
 INSTANTIATE_TEST_SUITE_P(DeformationBenchmark, BenchmarkCase, ::testing::Values("bar", "cactus", "cylinder", "plane"));

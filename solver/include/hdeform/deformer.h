@@ -49,6 +49,9 @@ using ProgressCallback = std::function<void(std::string_view stage)>;
 struct DeformerOptions {
   SolverBackend backend = default_backend();
   SolveSchedule schedule = default_schedule();
+  /// How the factor is stored: Single halves its values' memory, and each solve then takes one or
+  /// two correction steps more (README, Performance).
+  FactorPrecision precision = FactorPrecision::Double;
   Resolution resolution = Resolution::Automatic;
   Eigen::Index base_vertices = kDefaultBaseVertices;  ///< the base's size, with multiresolution
   RefinementOptions refinement;

@@ -29,9 +29,11 @@ class DirichletSystem {
   /// Throws SolveError when the factorization fails. `vertex_rank` is an elimination order of the
   /// whole Laplacian (elimination_ranks; computed here when not given); the free vertices are
   /// eliminated in the order it induces. `reuse`: an earlier system's factor().analysis(), taken when L_ff has the
-  /// pattern it was made for (see SparseCholesky::factor).
+  /// pattern it was made for (see SparseCholesky::factor). `precision`: how L is stored for the
+  /// solves (SparseCholesky::factor).
   DirichletSystem(const Eigen::SparseMatrix<double>& laplacian, const VertexPartition& partition, SolverBackend backend,
-                  std::span<const int> vertex_rank = {}, const std::shared_ptr<const SparseCholesky::Analysis>& reuse = nullptr);
+                  std::span<const int> vertex_rank = {}, const std::shared_ptr<const SparseCholesky::Analysis>& reuse = nullptr,
+                  FactorPrecision precision = FactorPrecision::Double);
 
   /// The factorization of L_ff.
   const SparseCholesky& factor() const { return factor_; }

@@ -15,7 +15,9 @@
 #include <Eigen/SparseCore>
 #include <memory>
 #include <optional>
+#include <cstdint>
 #include <span>
+#include <string>
 #include <string_view>
 #include <vector>
 
@@ -59,6 +61,17 @@ EliminationOrder elimination_order_for(Eigen::Index unknowns);
 /// step that eliminates unknown i. Deterministic: the same pattern always gives the same ranks.
 std::vector<int> elimination_ranks(const Eigen::SparseMatrix<double>& matrix, EliminationOrder order = EliminationOrder::Automatic);
 
+/// How L is stored for the solves.
+enum class FactorPrecision {
+  Double,  ///< L in double: one pass per solve
+  Single,  ///< L rounded to single (half the bytes of values), solves refined to double accuracy
+           ///< against A by correction steps that stop on a residual test
+};
+/// The precision's name: "double", "single".
+std::string_view to_string(FactorPrecision precision);
+/// The precision named `name`, or nullopt.
+std::optional<FactorPrecision> parse_precision(std::string_view name);
+
 /// A sparse Cholesky factorization P A Pᵀ = L Lᵀ of a symmetric positive definite matrix, kept for
 /// many solves: factor() once, then solve_block() per right-hand side block (allocation-free,
 /// parallel over elimination subtrees, the same bits on any number of threads).
@@ -81,8 +94,11 @@ class SparseCholesky {
   ///    rank in a fill-reducing elimination order, lowest first; empty: AMD on this matrix.
   ///  - reuse (Tree only): an earlier factorization's analysis(); taken, and the analysis
   ///    skipped, when this matrix has exactly the pattern it was made for.
+  ///  - precision: Single computes L in double, measures on a known solution how much one
+  ///    correction step gains, and keeps L in single precision when a step gains at least 100
+  ///    times; otherwise it keeps double and precision_note() says why.
   void factor(const Eigen::SparseMatrix<double>& matrix, SolverBackend backend, std::span<const int> ordering = {},
-              const std::shared_ptr<const Analysis>& reuse = nullptr);
+              const std::shared_ptr<const Analysis>& reuse = nullptr, FactorPrecision precision = FactorPrecision::Double);
   /// This factorization's analysis, for reuse; null unless the backend is Tree.
   std::shared_ptr<const Analysis> analysis() const;
   /// Whether the last factor() took the given analysis instead of analysing.
@@ -96,14 +112,30 @@ class SparseCholesky {
   SolverBackend backend() const { return backend_; }
   /// The nonzeros of L.
   Eigen::Index factor_nonzeros() const;
+  /// The precision the solves read L in.
+  FactorPrecision precision() const;
+  /// Why single precision was asked for and not used (the matrix is too ill-conditioned); empty
+  /// otherwise.
+  const std::string& precision_note() const;
+
+  /// What the refinement of single-precision solves has done.
+  struct Refinement {
+    std::int64_t solves = 0;       ///< refined solves so far
+    std::int64_t corrections = 0;  ///< correction steps over all of them
+    int most_corrections = 0;      ///< the most steps one solve took
+    std::int64_t stalled = 0;      ///< solves stopped because a step no longer halved the backward error
+    double contraction = 0.0;      ///< measured at set-up: the error after one step over the error before
+  };
+  /// The refinement's counts so far (all zero with a double factor).
+  Refinement refinement() const;
 
   /// factor_row()[i]: the row of unknown i in factor order.
   const std::vector<int>& factor_row() const;
 
   /// Solves A X = B in place for a row-major block in factor order: row factor_row()[i] holds the
   /// `columns` values of unknown i, consecutive rows `stride` doubles apart. Subtrees of the
-  /// elimination tree run concurrently. Allocation-free; safe to call concurrently on distinct
-  /// blocks.
+  /// elimination tree run concurrently. Safe to call concurrently on distinct blocks. Allocation-free
+  /// in double; in single, once the refinement's workspaces exist (one per concurrent solve, kept).
   void solve_block(double* block, int columns, int stride) const;
 
   /// How the solve is split: independent subtrees (one list of columns per worker, ascending) and

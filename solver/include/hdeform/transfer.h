@@ -55,6 +55,7 @@ struct TransferOptions {
   int top_n = 0;  ///< correspondence: compare only this many largest components (0: all k)
   double mismatch_threshold = kDefaultMismatchThreshold;  ///< correspondence
   SolverBackend backend = default_backend();
+  FactorPrecision precision = FactorPrecision::Double;  ///< how every factor is stored (SparseCholesky::factor)
 };
 
 /// Where the set-up's time went, milliseconds per stage.

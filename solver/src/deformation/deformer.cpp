@@ -209,9 +209,9 @@ Deformer::Deformer(Mesh rest, EditConstraints constraints, std::shared_ptr<const
 
   stage.emplace("factorization", "set-up");
   report("factoring " + std::to_string(partition_.free_vertices.size()) + " unknowns (" +
-         std::string(to_string(options_.backend)) + ")");
+         std::string(to_string(options_.backend)) + (options_.precision == FactorPrecision::Single ? ", single precision" : "") + ")");
   system_ = std::make_unique<DirichletSystem>(laplacian, partition_, options_.backend, operators_->elimination_rank,
-                                              operators_->last_analysis());
+                                              operators_->last_analysis(), options_.precision);
   if (auto analysis = system_->factor().analysis()) operators_->keep_analysis(std::move(analysis));
   timings_.factor_ms = system_->factor_ms();
 
@@ -364,6 +364,7 @@ std::vector<std::string> Deformer::warnings() const {
   lines.insert(lines.end(), partition_.warnings.begin(), partition_.warnings.end());
   lines.insert(lines.end(), handle_warnings_.begin(), handle_warnings_.end());
   if (!operators_->exact_because.empty()) lines.push_back(operators_->exact_because);
+  if ((base_ || system_) && !system().factor().precision_note().empty()) lines.push_back(system().factor().precision_note());
   return lines;
 }
 

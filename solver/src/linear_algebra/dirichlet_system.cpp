@@ -10,7 +10,7 @@ namespace hdeform {
 
 DirichletSystem::DirichletSystem(const Eigen::SparseMatrix<double>& laplacian, const VertexPartition& partition,
                                  SolverBackend backend, std::span<const int> vertex_rank,
-                                 const std::shared_ptr<const SparseCholesky::Analysis>& reuse) {
+                                 const std::shared_ptr<const SparseCholesky::Analysis>& reuse, FactorPrecision precision) {
   const auto n = static_cast<std::size_t>(laplacian.rows());
   const auto& free = partition.free_vertices;
   std::vector<int> free_index(n, -1);
@@ -47,7 +47,7 @@ DirichletSystem::DirichletSystem(const Eigen::SparseMatrix<double>& laplacian, c
     free_rank.resize(free.size());
     for (std::size_t k = 0; k < free.size(); ++k) free_rank[k] = vertex_rank[static_cast<std::size_t>(free[k])];
   }
-  factor_.factor(free_block, backend, free_rank, reuse);
+  factor_.factor(free_block, backend, free_rank, reuse, precision);
   factor_ms_ = milliseconds_since(factor_start);
 
   row_of_vertex_.assign(n, -1);

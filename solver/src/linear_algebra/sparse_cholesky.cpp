@@ -12,7 +12,9 @@
 
 #include "hdeform/errors.h"
 #include "hdeform/trace.h"
+#include "single_precision_factor.h"
 #include "tree_factorization.h"
+#include "triangular_sweeps.h"
 
 #ifdef HDEFORM_WITH_CHOLMOD
 #include <Eigen/CholmodSupport>
@@ -20,77 +22,6 @@
 
 namespace hdeform {
 namespace {
-
-// Both sweeps sum each unknown's products with two independent partial sums (alternating entry
-// by entry along the row or column): a single running sum would chain every product through the
-// adder's latency. The split is fixed, so the result does not depend on threads.
-constexpr int kPartialSums = 2;
-
-// Σ value[i]·y[index[i]] for i in [0, count), K interleaved columns, into sum[0..K): a gather
-// along a row's columns or a column's rows.
-template <int K>
-inline void gather(const int* index, const double* value, int count, const double* y, int stride, double* sum) {
-  double partial[kPartialSums][K] = {};
-  int i = 0;
-  for (; i + kPartialSums <= count; i += kPartialSums) {
-    for (int s = 0; s < kPartialSums; ++s) {
-      const double l = value[i + s];
-      const double* yi = y + static_cast<std::ptrdiff_t>(index[i + s]) * stride;
-      for (int k = 0; k < K; ++k) partial[s][k] += l * yi[k];
-    }
-  }
-  for (; i < count; ++i) {
-    const double l = value[i];
-    const double* yi = y + static_cast<std::ptrdiff_t>(index[i]) * stride;
-    for (int k = 0; k < K; ++k) partial[0][k] += l * yi[k];
-  }
-  for (int k = 0; k < K; ++k) sum[k] = partial[0][k] + partial[1][k];
-}
-
-// Forward sweep L y = b over `columns` (ascending), K interleaved right-hand sides: a gather
-// along row j of L, the diagonal last.
-template <int K>
-void forward_sweep(const detail::FactorPattern& pattern, const double* value, std::span<const int> columns, double* y, int stride) {
-  for (const int j : columns) {
-    const auto row = static_cast<std::size_t>(j);
-    const int first = pattern.row_start[row];
-    const int diagonal = pattern.row_start[row + 1] - 1;
-    double products[K];
-    gather<K>(pattern.row_column.data() + first, value + first, diagonal - first, y, stride, products);
-    double* yj = y + static_cast<std::ptrdiff_t>(j) * stride;
-    const double inverse_diagonal = 1.0 / value[diagonal];
-    for (int k = 0; k < K; ++k) yj[k] = (yj[k] - products[k]) * inverse_diagonal;
-  }
-}
-
-// Backward sweep Lᵀ x = y over `columns` (descending): a gather along column j of L (diagonal
-// first), with L's columns stored last to first and each column's rows the end of its
-// supernode's row list.
-template <int K>
-void backward_sweep(const detail::FactorPattern& pattern, const double* value, std::span<const int> columns, double* y, int stride) {
-  for (auto it = columns.rbegin(); it != columns.rend(); ++it) {
-    const int j = *it;
-    const double* l = value + pattern.column_begin[static_cast<std::size_t>(j)];
-    const auto length = static_cast<int>(pattern.column_length(j));
-    double products[K];
-    gather<K>(pattern.column_rows(j) + 1, l + 1, length - 1, y, stride, products);
-    double* yj = y + static_cast<std::ptrdiff_t>(j) * stride;
-    const double inverse_diagonal = 1.0 / l[0];
-    for (int k = 0; k < K; ++k) yj[k] = (yj[k] - products[k]) * inverse_diagonal;
-  }
-}
-
-struct Sweeps {
-  void (*forward)(const detail::FactorPattern&, const double*, std::span<const int>, double*, int);
-  void (*backward)(const detail::FactorPattern&, const double*, std::span<const int>, double*, int);
-};
-template <int K>
-constexpr Sweeps sweeps_for() {
-  return {forward_sweep<K>, backward_sweep<K>};
-}
-constexpr int kMaxKernelColumns = 8;
-constexpr Sweeps kSweeps[kMaxKernelColumns] = {sweeps_for<1>(), sweeps_for<2>(), sweeps_for<3>(), sweeps_for<4>(),
-                                               sweeps_for<5>(), sweeps_for<6>(), sweeps_for<7>(), sweeps_for<8>()};
 
 // Eigen's factor object keeps L in a protected member; moving it out avoids a 30 MB copy.
 template <class Solver>
@@ -212,6 +143,10 @@ struct SparseCholesky::Factor {
   detail::UninitializedVector<double> row_value;     // L by rows (analysis->pattern.row_start/row_column); forward sweep
   detail::UninitializedVector<double> column_value;  // L by stored columns (pattern.column_begin/end and rows); backward sweep
   bool reused_analysis = false;
+  // With FactorPrecision::Single: L in single precision (the double values above are released)
+  // and the refinement of its solves; null when the solves use the double values.
+  std::unique_ptr<detail::SingleFactor> single;
+  std::string precision_note;  // why single precision was asked for and not used
 };
 
 namespace {
@@ -265,8 +200,9 @@ std::vector<int> rows_of_ranks(std::span<const int> rank) {
   return factor_row;
 }
 
-void factor_with_tree(const Eigen::SparseMatrix<double>& matrix, std::span<const int> ordering,
-                      const std::shared_ptr<const SparseCholesky::Analysis>& reuse, SparseCholesky::Factor& factor) {
+// Returns P A Pᵀ, which the numeric factorization read (and single precision keeps for residuals).
+detail::PermutedMatrix factor_with_tree(const Eigen::SparseMatrix<double>& matrix, std::span<const int> ordering,
+                                        const std::shared_ptr<const SparseCholesky::Analysis>& reuse, SparseCholesky::Factor& factor) {
   std::shared_ptr<const SparseCholesky::Analysis> analysis;
   detail::PermutedMatrix permuted;
   if (reuse && reuse->analysed(matrix)) {
@@ -301,6 +237,21 @@ void factor_with_tree(const Eigen::SparseMatrix<double>& matrix, std::span<const
     }
   }
   factor.analysis = std::move(analysis);
+  return permuted;
+}
+
+// Rounds L to single precision when one correction step serves this matrix; else keeps the
+// double values and says why.
+void use_single_precision(detail::PermutedMatrix permuted, SparseCholesky::Factor& factor) {
+  const detail::FactorPattern& pattern = factor.analysis->pattern;
+  auto single = std::make_unique<detail::SingleFactor>(pattern, factor.row_value, factor.column_value, std::move(permuted));
+  if (auto reason = single->calibrate(pattern)) {
+    factor.precision_note = std::move(*reason);
+    return;
+  }
+  factor.single = std::move(single);
+  detail::UninitializedVector<double>().swap(factor.row_value);
+  detail::UninitializedVector<double>().swap(factor.column_value);
 }
 
 }  // namespace
@@ -318,9 +269,27 @@ std::shared_ptr<const SparseCholesky::Analysis> SparseCholesky::analysis() const
   return factor_->analysis->matrix_outer.empty() ? nullptr : factor_->analysis;
 }
 bool SparseCholesky::reused_analysis() const { return factor_->reused_analysis; }
+FactorPrecision SparseCholesky::precision() const { return factor_->single ? FactorPrecision::Single : FactorPrecision::Double; }
+const std::string& SparseCholesky::precision_note() const { return factor_->precision_note; }
+
+SparseCholesky::Refinement SparseCholesky::refinement() const {
+  if (!factor_->single) return {};
+  const detail::SingleFactor& single = *factor_->single;
+  const auto counts = single.counts();
+  return {counts.solves, counts.corrections, counts.most_corrections, counts.stalled, single.contraction()};
+}
+
+std::string_view to_string(FactorPrecision precision) { return precision == FactorPrecision::Single ? "single" : "double"; }
+
+std::optional<FactorPrecision> parse_precision(std::string_view name) {
+  for (const auto precision : {FactorPrecision::Double, FactorPrecision::Single}) {
+    if (name == to_string(precision)) return precision;
+  }
+  return std::nullopt;
+}
 
 void SparseCholesky::factor(const Eigen::SparseMatrix<double>& matrix, SolverBackend backend, std::span<const int> ordering,
-                            const std::shared_ptr<const Analysis>& reuse) {
+                            const std::shared_ptr<const Analysis>& reuse, FactorPrecision precision) {
   if (matrix.rows() != matrix.cols()) throw SolveError("cannot factor a non-square matrix");
   if (!backend_available(backend)) throw SolveError("this build has no " + std::string(to_string(backend)) + " backend");
   if (!ordering.empty() && ordering.size() != static_cast<std::size_t>(matrix.rows())) {
@@ -331,20 +300,23 @@ void SparseCholesky::factor(const Eigen::SparseMatrix<double>& matrix, SolverBac
   factor_ = std::make_unique<Factor>();
   if (matrix.rows() == 0) return;
   try {
+    detail::PermutedMatrix permuted;
     if (backend == SolverBackend::Tree) {
-      factor_with_tree(matrix, ordering, reuse, *factor_);
-      return;
-    }
-    Eigen::SparseMatrix<double> lower(0, 0);
-    std::vector<int> factor_row;
+      permuted = factor_with_tree(matrix, ordering, reuse, *factor_);
+    } else {
+      Eigen::SparseMatrix<double> lower(0, 0);
+      std::vector<int> factor_row;
 #ifdef HDEFORM_WITH_CHOLMOD
-    if (backend == SolverBackend::Cholmod) factor_with_cholmod(matrix, lower, factor_row);
-    else factor_with_eigen(matrix, lower, factor_row);
+      if (backend == SolverBackend::Cholmod) factor_with_cholmod(matrix, lower, factor_row);
+      else factor_with_eigen(matrix, lower, factor_row);
 #else
-    factor_with_eigen(matrix, lower, factor_row);
+      factor_with_eigen(matrix, lower, factor_row);
 #endif
-    const trace::Scope traced("factor layouts", "set-up");
-    adopt(lower, std::move(factor_row), *factor_);
+      const trace::Scope traced("factor layouts", "set-up");
+      adopt(lower, std::move(factor_row), *factor_);
+      if (precision == FactorPrecision::Single) permuted = detail::permuted_matrix(matrix, factor_->analysis->factor_row);
+    }
+    if (precision == FactorPrecision::Single) use_single_precision(std::move(permuted), *factor_);
   } catch (const std::bad_alloc&) {
     throw SolveError("out of memory while factoring a " + std::to_string(matrix.rows()) + "-unknown system");
   }
@@ -363,44 +335,8 @@ double SparseCholesky::top_fraction() const {
 void SparseCholesky::solve_block(double* block, int columns, int stride) const {
   const Factor& f = *factor_;
   const detail::FactorPattern& pattern = f.analysis->pattern;
-  const auto& subtrees = pattern.schedule.subtrees;
-  // One kernel's columns at a time: the subtrees' sweeps side by side (as in a drag's three or
-  // five columns), or, with `side_by_side` false, one after the other on this thread.
-  auto solve_columns = [&](int first, bool side_by_side) {
-    const Sweeps& sweeps = kSweeps[std::min(kMaxKernelColumns, columns - first) - 1];
-    double* y = block + first;
-    // Each sweep of each part is an event of the trace, on the thread that ran it.
-    auto each_subtree = [&](const char* name, auto&& sweep) {
-      if (subtrees.empty()) return;
-      auto one = [&](std::size_t part) {
-        const trace::Scope traced(name, "solve", static_cast<std::int64_t>(part));
-        sweep(subtrees[part]);
-      };
-      if (side_by_side) tbb::parallel_for(std::size_t{0}, subtrees.size(), one, tbb::static_partitioner());
-      else for (std::size_t part = 0; part < subtrees.size(); ++part) one(part);
-    };
-    auto forward = [&](std::span<const int> part) { sweeps.forward(pattern, f.row_value.data(), part, y, stride); };
-    auto backward = [&](std::span<const int> part) { sweeps.backward(pattern, f.column_value.data(), part, y, stride); };
-    each_subtree("forward sweep, subtree", forward);
-    {
-      const trace::Scope traced("forward and backward sweeps, top", "solve");
-      forward(pattern.schedule.top);
-      backward(pattern.schedule.top);
-    }
-    each_subtree("backward sweep, subtree", backward);
-  };
-  const int kernels = (columns + kMaxKernelColumns - 1) / kMaxKernelColumns;
-  const int threads = tbb::this_task_arena::max_concurrency();
-  if (threads > 1 && kernels >= 2 * threads) {
-    // Many columns (harmonic coordinates: one per marker): whole solves side by side, the top
-    // included, each thread a contiguous run of kernels so that two threads write the same
-    // cache lines only where their runs meet. Every column's arithmetic is the same either way.
-    tbb::parallel_for(tbb::blocked_range<int>(0, kernels), [&](const tbb::blocked_range<int>& range) {
-      for (int kernel = range.begin(); kernel != range.end(); ++kernel) solve_columns(kernel * kMaxKernelColumns, false);
-    }, tbb::static_partitioner());
-    return;
-  }
-  for (int first = 0; first < columns; first += kMaxKernelColumns) solve_columns(first, true);
+  if (f.single) f.single->solve(pattern, block, columns, stride);
+  else detail::solve_with_factor<double>(pattern, f.row_value.data(), f.column_value.data(), block, columns, stride);
 }
 
 Eigen::MatrixXd SparseCholesky::solve(const Eigen::MatrixXd& rhs) const {

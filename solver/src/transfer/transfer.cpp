@@ -2,6 +2,7 @@
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/SVD>
+#include <algorithm>
 #include <chrono>
 #include <optional>
 
@@ -217,8 +218,11 @@ std::unique_ptr<DirichletSystem> DeformationTransfer::factor(const Mesh& mesh, c
   EditConstraints constraints;
   constraints.fixed = fixed;
   partition = partition_vertices(mesh, operators.weights, constraints);
-  auto system = std::make_unique<DirichletSystem>(operators.laplacian, partition, options_.backend, operators.elimination_rank);
+  auto system = std::make_unique<DirichletSystem>(operators.laplacian, partition, options_.backend, operators.elimination_rank,
+                                                  nullptr, options_.precision);
   ++factorizations_;
+  const std::string& note = system->factor().precision_note();
+  if (!note.empty() && std::find(warnings_.begin(), warnings_.end(), note) == warnings_.end()) warnings_.push_back(note);
   return system;
 }
 

@@ -1,0 +1,139 @@
+#pragma once
+// The forward and backward sweeps of a solve with L Lᵀ (private to the linear algebra), for L
+// stored in double or in single precision. The right-hand sides and every sum stay in double
+// whatever L is stored in: a single-precision L costs only the rounding of its own entries.
+//
+// Both sweeps are gathers, so each unknown is summed in one fixed order, and disjoint subtrees of
+// the elimination tree run concurrently with the same bits on any number of threads.
+#include <tbb/parallel_for.h>
+#include <tbb/partitioner.h>
+#include <tbb/task_arena.h>
+
+#include <algorithm>
+#include <cstddef>
+#include <span>
+
+#include "hdeform/trace.h"
+#include "tree_factorization.h"
+
+namespace hdeform::detail {
+
+// Both sweeps sum each unknown's products with two independent partial sums (alternating entry
+// by entry along the row or column): a single running sum would chain every product through the
+// adder's latency. The split is fixed, so the result does not depend on threads.
+inline constexpr int kPartialSums = 2;
+
+// Σ value[i]·y[index[i]] for i in [0, count), K interleaved columns, into sum[0..K): a gather
+// along a row's columns or a column's rows.
+template <int K, class T>
+inline void gather(const int* index, const T* value, int count, const double* y, int stride, double* sum) {
+  double partial[kPartialSums][K] = {};
+  int i = 0;
+  for (; i + kPartialSums <= count; i += kPartialSums) {
+    for (int s = 0; s < kPartialSums; ++s) {
+      const double l = value[i + s];
+      const double* yi = y + static_cast<std::ptrdiff_t>(index[i + s]) * stride;
+      for (int k = 0; k < K; ++k) partial[s][k] += l * yi[k];
+    }
+  }
+  for (; i < count; ++i) {
+    const double l = value[i];
+    const double* yi = y + static_cast<std::ptrdiff_t>(index[i]) * stride;
+    for (int k = 0; k < K; ++k) partial[0][k] += l * yi[k];
+  }
+  for (int k = 0; k < K; ++k) sum[k] = partial[0][k] + partial[1][k];
+}
+
+// Forward sweep L y = b over `columns` (ascending), K interleaved right-hand sides: a gather
+// along row j of L, the diagonal last.
+template <int K, class T>
+void forward_sweep(const FactorPattern& pattern, const T* value, std::span<const int> columns, double* y, int stride) {
+  for (const int j : columns) {
+    const auto row = static_cast<std::size_t>(j);
+    const int first = pattern.row_start[row];
+    const int diagonal = pattern.row_start[row + 1] - 1;
+    double products[K];
+    gather<K>(pattern.row_column.data() + first, value + first, diagonal - first, y, stride, products);
+    double* yj = y + static_cast<std::ptrdiff_t>(j) * stride;
+    const double inverse_diagonal = 1.0 / static_cast<double>(value[diagonal]);
+    for (int k = 0; k < K; ++k) yj[k] = (yj[k] - products[k]) * inverse_diagonal;
+  }
+}
+
+// Backward sweep Lᵀ x = y over `columns` (descending): a gather along column j of L (diagonal
+// first), with L's columns stored last to first and each column's rows the end of its
+// supernode's row list.
+template <int K, class T>
+void backward_sweep(const FactorPattern& pattern, const T* value, std::span<const int> columns, double* y, int stride) {
+  for (auto it = columns.rbegin(); it != columns.rend(); ++it) {
+    const int j = *it;
+    const T* l = value + pattern.column_begin[static_cast<std::size_t>(j)];
+    const auto length = static_cast<int>(pattern.column_length(j));
+    double products[K];
+    gather<K>(pattern.column_rows(j) + 1, l + 1, length - 1, y, stride, products);
+    double* yj = y + static_cast<std::ptrdiff_t>(j) * stride;
+    const double inverse_diagonal = 1.0 / static_cast<double>(l[0]);
+    for (int k = 0; k < K; ++k) yj[k] = (yj[k] - products[k]) * inverse_diagonal;
+  }
+}
+
+inline constexpr int kMaxKernelColumns = 8;
+
+template <class T>
+struct Sweeps {
+  void (*forward)(const FactorPattern&, const T*, std::span<const int>, double*, int);
+  void (*backward)(const FactorPattern&, const T*, std::span<const int>, double*, int);
+};
+template <int K, class T>
+constexpr Sweeps<T> sweeps_for() {
+  return {forward_sweep<K, T>, backward_sweep<K, T>};
+}
+template <class T>
+inline constexpr Sweeps<T> kSweeps[kMaxKernelColumns] = {sweeps_for<1, T>(), sweeps_for<2, T>(), sweeps_for<3, T>(), sweeps_for<4, T>(),
+                                                         sweeps_for<5, T>(), sweeps_for<6, T>(), sweeps_for<7, T>(), sweeps_for<8, T>()};
+
+// Solves L Lᵀ X = B in place for a row-major block in factor order (`columns` values per row,
+// rows `stride` apart), with L's values by rows (forward) and by stored columns (backward).
+template <class T>
+void solve_with_factor(const FactorPattern& pattern, const T* row_value, const T* column_value, double* block, int columns, int stride) {
+  const auto& subtrees = pattern.schedule.subtrees;
+  // One kernel's columns at a time: the subtrees' sweeps side by side (as in a drag's three or
+  // five columns), or, with `side_by_side` false, one after the other on this thread.
+  auto solve_columns = [&](int first, bool side_by_side) {
+    const Sweeps<T>& sweeps = kSweeps<T>[std::min(kMaxKernelColumns, columns - first) - 1];
+    double* y = block + first;
+    // Each sweep of each part is an event of the trace, on the thread that ran it.
+    auto each_subtree = [&](const char* name, auto&& sweep) {
+      if (subtrees.empty()) return;
+      auto one = [&](std::size_t part) {
+        const trace::Scope traced(name, "solve", static_cast<std::int64_t>(part));
+        sweep(subtrees[part]);
+      };
+      if (side_by_side) tbb::parallel_for(std::size_t{0}, subtrees.size(), one, tbb::static_partitioner());
+      else for (std::size_t part = 0; part < subtrees.size(); ++part) one(part);
+    };
+    auto forward = [&](std::span<const int> part) { sweeps.forward(pattern, row_value, part, y, stride); };
+    auto backward = [&](std::span<const int> part) { sweeps.backward(pattern, column_value, part, y, stride); };
+    each_subtree("forward sweep, subtree", forward);
+    {
+      const trace::Scope traced("forward and backward sweeps, top", "solve");
+      forward(pattern.schedule.top);
+      backward(pattern.schedule.top);
+    }
+    each_subtree("backward sweep, subtree", backward);
+  };
+  const int kernels = (columns + kMaxKernelColumns - 1) / kMaxKernelColumns;
+  const int threads = tbb::this_task_arena::max_concurrency();
+  if (threads > 1 && kernels >= 2 * threads) {
+    // Many columns (harmonic coordinates: one per marker): whole solves side by side, the top
+    // included, each thread a contiguous run of kernels so that two threads write the same
+    // cache lines only where their runs meet. Every column's arithmetic is the same either way.
+    tbb::parallel_for(tbb::blocked_range<int>(0, kernels), [&](const tbb::blocked_range<int>& range) {
+      for (int kernel = range.begin(); kernel != range.end(); ++kernel) solve_columns(kernel * kMaxKernelColumns, false);
+    }, tbb::static_partitioner());
+    return;
+  }
+  for (int first = 0; first < columns; first += kMaxKernelColumns) solve_columns(first, true);
+}
+
+}  // namespace hdeform::detail
