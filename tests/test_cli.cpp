@@ -135,6 +135,35 @@ TEST_F(Cli, MultiresolutionOnTheCommandLineAndInASession) {
   EXPECT_FALSE(std::filesystem::exists(path("x.obj")));
 }
 
+// --precision single: the report says so and counts the correction steps, the result is the
+// double one to 1e-10 of the diagonal, and a session that states its precision refuses another.
+TEST_F(Cli, SinglePrecisionFactorsOnTheCommandLineAndInASession) {
+  const auto single = run(dir, "edit --shape cactus --precision single --refine 3 --quiet --out " + path("single.obj"));
+  ASSERT_EQ(single.exit_code, 0) << single.err;
+  const auto report = nlohmann::json::parse(single.out);
+  EXPECT_EQ(report["precision"], "single");
+  EXPECT_GE(report["correction_steps"].get<int>(), 5);  // the field, the update, three iterations
+  const auto in_double = run(dir, "edit --shape cactus --refine 3 --quiet --out " + path("double.obj"));
+  ASSERT_EQ(in_double.exit_code, 0) << in_double.err;
+  EXPECT_EQ(nlohmann::json::parse(in_double.out)["precision"], "double");
+  EXPECT_EQ(nlohmann::json::parse(in_double.out)["correction_steps"], 0);
+  const Eigen::MatrixXd a = read_obj(path("single.obj")).positions, b = read_obj(path("double.obj")).positions;
+  EXPECT_LE((a - b).cwiseAbs().maxCoeff(), 1e-10 * bounding_box_diagonal(b));
+
+  const auto field = run(dir, "field --shape cactus --precision single --out " + path("field.txt"));
+  ASSERT_EQ(field.exit_code, 0) << field.err;
+  EXPECT_EQ(nlohmann::json::parse(field.out)["precision"], "single");
+  const auto unknown = run(dir, "edit --shape cactus --precision half --out " + path("x.obj"));
+  EXPECT_EQ(unknown.exit_code, 2);
+  EXPECT_TRUE(contains(unknown.err, "--precision")) << unknown.err;
+
+  dir.write("single.json", R"({"format": "hdeform-session", "version": 1, "mesh": "shape:cactus", "precision": "single", "current": {}})");
+  const auto overridden = run(dir, "edit --session " + path("single.json") + " --precision double --out " + path("x.obj"));
+  EXPECT_EQ(overridden.exit_code, 2);
+  EXPECT_TRUE(contains(overridden.err, "says how its factors are stored")) << overridden.err;
+  EXPECT_FALSE(std::filesystem::exists(path("x.obj")));
+}
+
 TEST_F(Cli, BadDataExitsWithOneNamesTheFileAndWritesNothing) {
   dir.write("h.txt", "0 1 2\n");
   dir.write("f.txt", "100 101\n");

@@ -244,5 +244,41 @@ TEST(Session, ReplaySolvesWhereTheSessionSays) {
   expect_session_error(dir, head + " \"resolution\": \"multiresolution\",\n \"base_vertices\": 2\n}\n", 7, "at least 4");
 }
 
+// A session solved with single-precision factors says so, and its replay solves alike (the same
+// bits as a Deformer asked for single precision), whatever the caller asks; one that says
+// nothing solves as the caller asks.
+TEST(Session, ReplayStoresTheFactorsAsTheSessionSays) {
+  const test::TempDir dir;
+  Session session = demo_session();
+  session.resolution = Resolution::Exact;
+  const Mesh base = cli::load_session_mesh(session);
+  const nlohmann::json unstated = cli::to_json(session);
+  EXPECT_FALSE(unstated.contains("precision"));  // files from before stay as they were
+  session.precision = FactorPrecision::Single;
+  cli::write_session(dir.file("single.json"), session);
+  const Session back = cli::read_session(dir.file("single.json"));
+  EXPECT_EQ(back.precision, FactorPrecision::Single);
+  EXPECT_EQ(back, session);
+  Session in_double = back;
+  in_double.precision = FactorPrecision::Double;
+  EXPECT_FALSE(in_double == session);
+
+  DeformerOptions single;
+  single.resolution = Resolution::Exact;
+  single.precision = FactorPrecision::Single;
+  Deformer deformer(base, session.current.constraints(), single);
+  Eigen::MatrixXd expected;
+  deformer.deform(session.current.transforms(), expected);
+  DeformerOptions asked;  // double: the session's precision replaces it
+  EXPECT_EQ(cli::replay_session(back, base, asked), expected);
+  Session unsaid = back;
+  unsaid.precision.reset();
+  EXPECT_NE(cli::replay_session(unsaid, base, asked), expected);  // solved in double: other last bits
+  EXPECT_EQ(cli::replay_session(unsaid, base, single), expected);
+
+  const std::string head = "{\n \"format\": \"hdeform-session\",\n \"version\": 1,\n \"mesh\": \"shape:cactus\",\n \"current\": {},\n";
+  expect_session_error(dir, head + " \"precision\": \"half\"\n}\n", 6, "expected \"double\" or \"single\"");
+}
+
 }  // namespace
 }  // namespace hdeform

@@ -77,6 +77,7 @@ class BenchCommand final : public BatchCommand {
                         "diagonal times a fixed pattern of three frequencies, so that the detail is real (e.g. 0.001)");
     command->add_option("--threads", threads_, "Worker threads (default: all cores)");
     resolution_.add_options(*command);
+    add_precision_option(*command, precision_);
     command->add_option("--out", out_path_, "Also write the JSON report to this file");
     command->add_flag("--quiet", quiet_, "No progress on stderr");
     trace_.add_options(*command);
@@ -193,6 +194,7 @@ class BenchCommand final : public BatchCommand {
       const Deformer opened(mesh, constraints, options_for(default_backend(), default_schedule()));
       report["open_ms"] = read_ms + milliseconds_since(setup_start);
       report["resolution"] = to_string(opened.resolution());
+      report["precision"] = to_string(opened.system().factor().precision());
       report["solved_vertices"] = opened.solved_mesh().vertex_count();
       report["base_ms"] = opened.timings().base_ms;
       // A base mesh is built once per mesh: every deformer below shares it (an exact one builds
@@ -203,7 +205,7 @@ class BenchCommand final : public BatchCommand {
         EditConstraints reselected = constraints;
         reselected.handles = {std::move(handle)};
         const auto reselect_start = Clock::now();
-        const Deformer deformer(mesh, reselected, opened.operators());
+        const Deformer deformer(mesh, reselected, opened.operators(), options_for(default_backend(), default_schedule()));
         samples.push_back(milliseconds_since(reselect_start));
       }
       report["reselect_ms"] = to_json(summarize(samples));
@@ -226,6 +228,14 @@ class BenchCommand final : public BatchCommand {
           {"update_ms", to_json(update)},
       };
       report["free"] = deformer.system().free_count();
+      if (deformer.system().factor().precision() == FactorPrecision::Single && backend == default_backend()) {
+        DeformerOptions in_double = options_for(default_backend(), default_schedule());
+        in_double.precision = FactorPrecision::Double;
+        Deformer reference(mesh, constraints, shared_operators_, in_double);
+        Eigen::MatrixXd expected;
+        drag(reference, std::span(&transform, 1), expected);
+        report["single_precision"] = single_precision_report(mesh, deformer, positions, expected);
+      }
       results.push_back(std::move(positions));
     }
     // Largest difference of any backend's result from the first's.
@@ -296,9 +306,26 @@ class BenchCommand final : public BatchCommand {
   }
 
  private:
+  // A single-precision drag against the same drag in double: the largest deviation (a fraction of
+  // the bounding box's diagonal) and what the refinement of the solves took.
+  static nlohmann::json single_precision_report(const Mesh& mesh, const Deformer& single, const Eigen::MatrixXd& positions,
+                                                const Eigen::MatrixXd& expected) {
+    const auto& factor = single.system().factor();
+    const auto refinement = factor.refinement();
+    return {{"deviation_from_double", (positions - expected).cwiseAbs().maxCoeff() / bounding_box_diagonal(mesh.positions)},
+            {"solves", refinement.solves},
+            {"correction_steps", refinement.corrections},
+            {"most_correction_steps", refinement.most_corrections},
+            {"stalled", refinement.stalled},
+            {"contraction", refinement.contraction},
+            {"factor_values_mb", static_cast<double>(factor.factor_nonzeros()) * 2 * sizeof(float) / 1e6},
+            {"double_factor_values_mb", static_cast<double>(factor.factor_nonzeros()) * 2 * sizeof(double) / 1e6}};
+  }
+
   DeformerOptions options_for(SolverBackend backend, SolveSchedule schedule) const {
     DeformerOptions options = DeformerOptions::solver(backend, schedule);
     resolution_.apply(options);
+    options.precision = parse_precision(precision_).value_or(FactorPrecision::Double);
     return options;
   }
 
@@ -428,6 +455,7 @@ class BenchCommand final : public BatchCommand {
   MeshSource source_;
   TraceChoice trace_;
   ResolutionChoice resolution_;
+  std::string precision_ = std::string(to_string(FactorPrecision::Double));
   std::shared_ptr<const MeshOperators> shared_operators_;  // multiresolution: the base, built once
   std::string fixed_path_;
   std::string handle_path_;

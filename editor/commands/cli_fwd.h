@@ -4,4 +4,5 @@
 // files that register or parse options include it.
 namespace CLI {
 class App;
+class Option;
 }

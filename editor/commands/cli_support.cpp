@@ -101,6 +101,7 @@ LoadedMesh load_mesh(const MeshSource& source) {
 void SolverChoice::add_options(CLI::App& command) {
   command.add_option("--backend", backend, "Factorization backend: tree (ours, both cores), eigen or cholmod")->capture_default_str();
   command.add_option("--schedule", schedule, "Column solves: blocked, per-column or thread-groups")->capture_default_str();
+  precision_option = add_precision_option(command, precision);
   command.add_option("--threads", threads, "Worker threads (default: all cores)");
 }
 
@@ -170,6 +171,18 @@ RefinementOptions RefineChoice::options() const {
   options.accelerate = !plain;
   return options;
 }
+
+CLI::Option* add_precision_option(CLI::App& command, std::string& precision) {
+  return command.add_option("--precision", precision,
+                     "How the factor is stored: double, or single (half the factor's memory; each solve then takes one or two "
+                     "correction steps against the double matrix, to the same accuracy)")
+      ->check(CLI::IsMember({"double", "single"}))
+      ->capture_default_str();
+}
+
+bool SolverChoice::precision_given() const { return precision_option != nullptr && precision_option->count() > 0; }
+
+FactorPrecision SolverChoice::parsed_precision() const { return parse_precision(precision).value_or(FactorPrecision::Double); }
 
 SolverBackend SolverChoice::parsed_backend() const {
   const auto parsed = parse_backend(backend);

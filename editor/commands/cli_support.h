@@ -59,19 +59,27 @@ struct LoadedMesh {
 };
 LoadedMesh load_mesh(const MeshSource& source);
 
-// --backend, --schedule, --threads.
+// --backend, --schedule, --precision, --threads.
 struct SolverChoice {
   std::string backend = std::string(to_string(default_backend()));
   std::string schedule = std::string(to_string(default_schedule()));
+  std::string precision = std::string(to_string(FactorPrecision::Double));
   int threads = 0;
 
   void add_options(CLI::App& command);
   SolverBackend parsed_backend() const;
   SolveSchedule parsed_schedule() const;
+  FactorPrecision parsed_precision() const;
+  // Whether --precision was on the command line (a session states its own).
+  bool precision_given() const;
+  CLI::Option* precision_option = nullptr;
   // Limits TBB to --threads for the lifetime of the returned object (none when 0).
   std::unique_ptr<tbb::global_control> apply_threads() const;
   int effective_threads() const;
 };
+
+// --precision double|single alone (the editor's and the benchmark's).
+CLI::Option* add_precision_option(CLI::App& command, std::string& precision);
 
 // --exact, --multiresolution, --base-vertices N: where the solves run (deformer.h, Resolution).
 struct ResolutionChoice {

@@ -54,7 +54,7 @@ class CorrespondenceCommand final : public BatchCommand {
   }
 
   int run() override {
-    const TransferOptions options = arguments_.options(solver_.parsed_backend());
+    const TransferOptions options = arguments_.options(solver_.parsed_backend(), solver_.parsed_precision());
     if (!out_path_.empty()) refuse_overwriting_inputs(out_path_, arguments_.inputs());
     if (!png_path_.empty()) refuse_overwriting_inputs(png_path_, arguments_.inputs());
     const auto threads = solver_.apply_threads();

@@ -86,6 +86,7 @@ class EditCommand final : public BatchCommand {
     const auto threads = solver_.apply_threads();
     const Progress progress(quiet_);
     DeformerOptions options = DeformerOptions::solver(solver_.parsed_backend(), solver_.parsed_schedule());
+    options.precision = solver_.parsed_precision();
     resolution_.apply(options);
     int refine_iterations = refine_.parsed_iterations();
     options.refinement = refine_.options();
@@ -106,6 +107,13 @@ class EditCommand final : public BatchCommand {
       check_session_against_mesh(session, loaded.mesh.vertex_count(), session_source);
       options.resolution = session.resolution;
       if (session.resolution == Resolution::Multiresolution) options.base_vertices = session.base_vertices;
+      if (session.precision) {
+        if (solver_.precision_given() && *session.precision != options.precision) {
+          throw UsageError("--session says how its factors are stored (its \"precision\": " + std::string(to_string(*session.precision)) +
+                           "); leave out --precision");
+        }
+        options.precision = *session.precision;
+      }
       if (!session.applied.empty()) {
         progress("replaying " + std::to_string(session.applied.size()) + " applied stage(s)");
         Session applied_only = session;
@@ -223,6 +231,8 @@ class EditCommand final : public BatchCommand {
         {"handles", deformer.handle_count()},
         {"backend", to_string(options.backend)},
         {"schedule", to_string(options.schedule)},
+        {"precision", to_string(deformer.system().factor().precision())},
+        {"correction_steps", deformer.system().factor().refinement().corrections},
         {"threads", solver_.effective_threads()},
         {"resolution", to_string(deformer.resolution())},
         {"solved_vertices", deformer.solved_mesh().vertex_count()},

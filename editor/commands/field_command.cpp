@@ -65,7 +65,12 @@ class FieldCommand final : public BatchCommand {
     if (constraints.fixed.empty()) warnings.emplace_back("no sinks: the field is 1 on every part that holds a source");
     progress.warn(warnings);
     progress("factoring " + std::to_string(partition.free_vertices.size()) + " unknowns");
-    const DirichletSystem system(cotangent_laplacian(mesh, weights), partition, solver_.parsed_backend());
+    const DirichletSystem system(cotangent_laplacian(mesh, weights), partition, solver_.parsed_backend(), {}, nullptr,
+                                 solver_.parsed_precision());
+    if (const auto& note = system.factor().precision_note(); !note.empty()) {
+      warnings.push_back(note);
+      progress.warn({note});
+    }
     progress("solving the harmonic field");
     const auto start = std::chrono::steady_clock::now();
     const Eigen::VectorXd field = harmonic_field(system, partition);
@@ -89,6 +94,7 @@ class FieldCommand final : public BatchCommand {
         {"sources", partition.count(VertexRole::Handle)},
         {"sinks", partition.count(VertexRole::Fixed)},
         {"backend", solver_.backend},
+        {"precision", to_string(system.factor().precision())},
         {"factor_ms", system.factor_ms()},
         {"field_ms", field_ms},
         {"min", field.minCoeff()},

@@ -32,7 +32,7 @@ class TransferCommand final : public BatchCommand {
   }
 
   int run() override {
-    const TransferOptions options = arguments_.options(solver_.parsed_backend());
+    const TransferOptions options = arguments_.options(solver_.parsed_backend(), solver_.parsed_precision());
     if (!expected_paths_.empty() && expected_paths_.size() != pose_paths_.size()) {
       throw UsageError("give one --expected per --source-pose (" + std::to_string(pose_paths_.size()) + " poses, " +
                        std::to_string(expected_paths_.size()) + " expected)");

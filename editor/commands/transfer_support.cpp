@@ -19,7 +19,7 @@ void TransferArguments::add_options(CLI::App& command, bool with_method) {
       ->capture_default_str();
 }
 
-TransferOptions TransferArguments::options(SolverBackend backend) const {
+TransferOptions TransferArguments::options(SolverBackend backend, FactorPrecision precision) const {
   TransferOptions options;
   const auto parsed = parse_transfer_method(method);
   if (!parsed) throw UsageError("--method must be correspondence or interpolation (got '" + method + "')");
@@ -30,6 +30,7 @@ TransferOptions TransferArguments::options(SolverBackend backend) const {
   options.top_n = top_n;
   options.mismatch_threshold = mismatch_threshold;
   options.backend = backend;
+  options.precision = precision;
   return options;
 }
 

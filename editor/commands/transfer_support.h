@@ -27,7 +27,7 @@ struct TransferArguments {
   void add_options(CLI::App& command, bool with_method);
   std::vector<std::string> inputs() const { return {source_rest, target, markers}; }
   // Throws UsageError for an unknown method or column.
-  TransferOptions options(SolverBackend backend) const;
+  TransferOptions options(SolverBackend backend, FactorPrecision precision) const;
 };
 
 struct TransferInputs {

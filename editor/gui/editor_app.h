@@ -32,6 +32,8 @@ struct EditorOptions {
   // size (multiresolution from kMultiresolutionFrom vertices).
   Resolution resolution = Resolution::Automatic;
   Eigen::Index base_vertices = kDefaultBaseVertices;
+  // How a new session stores its factors (a session file that says keeps its own).
+  FactorPrecision precision = FactorPrecision::Double;
   std::filesystem::path recovery_file;  // empty: default_recovery_path()
   std::string restore = "ask";          // ask, yes or no, when a recovery file is found
   std::string screenshot_dir = ".";

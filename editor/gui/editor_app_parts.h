@@ -188,6 +188,7 @@ class EditorApp {
     DeformerOptions document_options;
     document_options.resolution = options_.resolution;
     document_options.base_vertices = options_.base_vertices;
+    document_options.precision = options_.precision;
     load_.start("Loading " + what, [load, document_options, recovered] {
       auto files = load();  // (session, mesh) or (session, mesh, a problem with the lists given beside the mesh)
       Loaded loaded;

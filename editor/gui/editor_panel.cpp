@@ -163,6 +163,19 @@ void EditorApp::draw_controls() {
   } else {
     ImGui::Text("Exact: solved on all %ld vertices", static_cast<long>(document_->vertex_count()));
   }
+  if (document_->factor_precision() == FactorPrecision::Single) {
+    const auto refinement = document_->factor_refinement();
+    if (refinement.solves > 0) {
+      ImGui::TextWrapped("Single precision: %.2f correction steps a solve",
+                         static_cast<double>(refinement.corrections) / static_cast<double>(refinement.solves));
+    } else {
+      ImGui::TextUnformatted("Single precision");
+    }
+    if (ImGui::IsItemHovered()) {
+      ImGui::SetTooltip("The factor is stored in single precision (half its memory); each solve is refined against the\n"
+                        "double matrix until its residual is at double accuracy. Saved with the session.");
+    }
+  }
   switch (document_->solver_state()) {
     case Document::SolverState::NoHandle: ImGui::TextWrapped("Paint a handle (3) to deform."); break;
     case Document::SolverState::Building:

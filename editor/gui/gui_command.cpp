@@ -37,6 +37,7 @@ class GuiCommand final : public BatchCommand {
         ->capture_default_str();
     command->add_flag("--validation", options_.validation, "Enable the Khronos validation layer");
     resolution_.add_options(*command);
+    add_precision_option(*command, precision_);
     command->add_flag("!--no-refine", options_.refine,
                       "A new session starts with the as-rigid-as-possible refinement off (the paper's method alone; a panel toggle)");
     command->add_option("--recovery-file", options_.recovery_file, "Crash-recovery file (default: $HDEFORM_RECOVERY_FILE or ~/.local/state/hdeform)");
@@ -71,12 +72,14 @@ class GuiCommand final : public BatchCommand {
     resolution_.apply(solver);
     options_.resolution = solver.resolution;
     options_.base_vertices = solver.base_vertices;
+    options_.precision = parse_precision(precision_).value_or(FactorPrecision::Double);
     return run_editor(options_);
   }
 
  private:
   EditorOptions options_;
   ResolutionChoice resolution_;
+  std::string precision_ = std::string(to_string(FactorPrecision::Double));
 };
 
 }  // namespace

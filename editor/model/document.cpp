@@ -41,6 +41,8 @@ Document::Document(Session session, Mesh base, DeformerOptions options, Publish 
   }
   session.resolution = options_.resolution;
   session.base_vertices = options_.base_vertices;
+  if (session.precision) options_.precision = *session.precision;
+  session.precision = options_.precision;
   auto rest = std::make_shared<Mesh>(base_);
   Session applied_only = session;
   applied_only.current = {};
@@ -83,6 +85,7 @@ Session Document::session() const {
   session.active_handle = session.current.handles.empty() ? 0 : std::min(active, static_cast<int>(session.current.handles.size()) - 1);
   session.resolution = options_.resolution;
   session.base_vertices = options_.base_vertices;
+  session.precision = options_.precision;
   return session;
 }
 
@@ -321,6 +324,10 @@ std::string Document::solver_message() const {
 const Eigen::VectorXd* Document::field() const { return deformer_ ? &deformer_->field() : nullptr; }
 const DeformerTimings* Document::setup_timings() const { return deformer_ ? &deformer_->timings() : nullptr; }
 Eigen::Index Document::solved_vertex_count() const { return deformer_ ? deformer_->solved_mesh().vertex_count() : 0; }
+SparseCholesky::Refinement Document::factor_refinement() const {
+  return deformer_ ? deformer_->system().factor().refinement() : SparseCholesky::Refinement{};
+}
+FactorPrecision Document::factor_precision() const { return deformer_ ? deformer_->system().factor().precision() : options_.precision; }
 std::vector<std::string> Document::warnings() const { return deformer_ ? deformer_->warnings() : std::vector<std::string>{}; }
 
 void Document::set_options(const DeformerOptions& options) {
@@ -329,6 +336,7 @@ void Document::set_options(const DeformerOptions& options) {
   // Where the session solves is part of it (decided when it opened).
   options_.resolution = decided.resolution;
   options_.base_vertices = decided.base_vertices;
+  options_.precision = decided.precision;
   stop_pipeline();
   deformer_.reset();
   failure_.clear();

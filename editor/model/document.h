@@ -108,6 +108,10 @@ class Document {
   const DeformerTimings* setup_timings() const;
   // The vertices the solves run on (the base's with multiresolution); 0 before a set-up.
   Eigen::Index solved_vertex_count() const;
+  // How the ready deformer's factor is stored (the session's choice until one is ready), and what
+  // refining its single-precision solves has taken.
+  FactorPrecision factor_precision() const;
+  SparseCholesky::Refinement factor_refinement() const;
   // What the ready deformer found about the mesh and the selection (Deformer::warnings).
   std::vector<std::string> warnings() const;
   double last_update_ms() const { return last_update_ms_.load(); }

@@ -188,7 +188,8 @@ bool EditStage::operator==(const EditStage& other) const {
 
 bool Session::operator==(const Session& other) const {
   return mesh == other.mesh && applied == other.applied && current == other.current && active_handle == other.active_handle &&
-         resolution == other.resolution && (resolution != Resolution::Multiresolution || base_vertices == other.base_vertices);
+         resolution == other.resolution && (resolution != Resolution::Multiresolution || base_vertices == other.base_vertices) &&
+         precision.value_or(FactorPrecision::Double) == other.precision.value_or(FactorPrecision::Double);
 }
 
 json to_json(const Session& session) {
@@ -202,6 +203,7 @@ json to_json(const Session& session) {
               {"active_handle", session.active_handle}};
   out["resolution"] = to_string(session.resolution);
   if (session.resolution == Resolution::Multiresolution) out["base_vertices"] = session.base_vertices;
+  if (session.precision == FactorPrecision::Single) out["precision"] = to_string(*session.precision);
   return out;
 }
 
@@ -272,6 +274,12 @@ Session session_from_json(const json& value, const SessionSource& source) {
       reader.fail("/base_vertices", "multiresolution needs the base mesh's size: an integer, at least 4");
     }
     session.base_vertices = base_vertices.get<Eigen::Index>();
+  }
+  const auto& precision = reader.member(value, "", "precision", false);
+  if (!precision.is_null()) {
+    const auto parsed = precision.is_string() ? parse_precision(precision.get<std::string>()) : std::nullopt;
+    if (!parsed) reader.fail("/precision", "expected \"double\" or \"single\"");
+    session.precision = *parsed;
   }
   return session;
 }
@@ -387,6 +395,7 @@ Eigen::MatrixXd replay_session(const Session& session, const Mesh& base, const D
     stage_options.prepare_refinement = stage.refine;
     stage_options.resolution = session.resolution;
     if (session.resolution == Resolution::Multiresolution) stage_options.base_vertices = session.base_vertices;
+    if (session.precision) stage_options.precision = *session.precision;
     Deformer deformer(rest, stage.constraints(), stage_options, progress);
     if (stage.refine && progress) progress("refining until converged");
     return stage_result(deformer, stage);

@@ -6,6 +6,7 @@
 #include <Eigen/Core>
 #include <filesystem>
 #include <functional>
+#include <optional>
 #include <nlohmann/json_fwd.hpp>
 #include <string>
 #include <vector>
@@ -51,6 +52,9 @@ struct Session {
   // (written before multiresolution).
   Resolution resolution = Resolution::Automatic;
   Eigen::Index base_vertices = kDefaultBaseVertices;
+  // How the editor stored its factors (SparseCholesky::factor): written when single, so that a
+  // replay solves alike; absent, the opener's choice (double unless asked).
+  std::optional<FactorPrecision> precision = std::nullopt;
 
   bool operator==(const Session& other) const;
 };

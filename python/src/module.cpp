@@ -137,6 +137,12 @@ SolverBackend backend_argument(const std::string& name) {
   return *backend;
 }
 
+FactorPrecision precision_argument(const std::string& name) {
+  const auto precision = parse_precision(name);
+  if (!precision) throw py::value_error("precision must be 'double' or 'single'; got '" + name + "'");
+  return *precision;
+}
+
 // A 3×4 or 4×4 matrix (its last row 0 0 0 1), or a Transform.
 HandleTransform transform_argument(const py::handle& object, const std::string& name) {
   if (py::isinstance<HandleTransform>(object)) return object.cast<HandleTransform>();
@@ -195,7 +201,8 @@ class PyDeformer {
  public:
   PyDeformer(const py::object& positions, const py::object& triangles, const py::object& fixed, const py::object& handles,
              const py::object& roi, const std::string& backend, const py::object& refine, double refine_tolerance, double refine_settle,
-             bool acceleration, const py::object& progress, const std::string& resolution, Eigen::Index base_vertices) {
+             bool acceleration, const py::object& progress, const std::string& resolution, Eigen::Index base_vertices,
+             const std::string& precision) {
     Mesh mesh = mesh_argument(positions, triangles, "mesh");
     EditConstraints constraints;
     constraints.fixed = indices_argument(fixed, "fixed");
@@ -206,6 +213,7 @@ class PyDeformer {
     for (const auto handle : handles.cast<py::sequence>()) constraints.handles.push_back(indices_argument(handle, "handles[" + std::to_string(h++) + "]"));
     if (!roi.is_none()) constraints.region_of_interest = indices_argument(roi, "roi");
     DeformerOptions options = DeformerOptions::solver(backend_argument(backend));
+    options.precision = precision_argument(precision);
     const auto parsed_resolution = resolution == "auto" ? std::optional(Resolution::Automatic) : parse_resolution(resolution);
     if (!parsed_resolution || resolution == "automatic") {
       throw py::value_error("resolution must be 'auto', 'exact' or 'multiresolution', not '" + resolution + "'");
@@ -302,6 +310,7 @@ class PyDeformer {
   }
   Eigen::Index vertex_count() const { return deformer_->rest().vertex_count(); }
   std::string resolution() const { return std::string(to_string(deformer_->resolution())); }
+  std::string precision() const { return std::string(to_string(deformer_->system().factor().precision())); }
   Eigen::Index solved_vertex_count() const { return deformer_->solved_mesh().vertex_count(); }
   std::size_t handle_count() const { return deformer_->handle_count(); }
 
@@ -359,19 +368,20 @@ py::tuple laplacian_binding(const py::object& positions, const py::object& trian
 }
 
 py::array harmonic_field_binding(const py::object& positions, const py::object& triangles, const py::object& sources,
-                                 const py::object& sinks, const std::string& backend) {
+                                 const py::object& sinks, const std::string& backend, const std::string& precision) {
   const Mesh mesh = mesh_argument(positions, triangles, "mesh");
   EditConstraints constraints;
   constraints.handles = {indices_argument(sources, "sources")};
   constraints.fixed = indices_argument(sinks, "sinks");
   if (constraints.handles.front().empty()) throw InputError("sources: the field needs at least one source vertex");
   const SolverBackend chosen = backend_argument(backend);
+  const FactorPrecision stored = precision_argument(precision);
   Eigen::VectorXd field;
   {
     const py::gil_scoped_release unlocked;
     const auto weights = cotangent_weights(mesh);
     const auto partition = partition_vertices(mesh, weights, constraints);
-    const DirichletSystem system(cotangent_laplacian(mesh, weights), partition, chosen);
+    const DirichletSystem system(cotangent_laplacian(mesh, weights), partition, chosen, {}, nullptr, stored);
     field = harmonic_field(system, partition);
   }
   return owning_array(std::move(field));
@@ -421,7 +431,8 @@ struct TransferArguments {
 };
 
 TransferArguments transfer_arguments(const py::tuple& source_rest, const py::tuple& target, const py::object& markers,
-                                     const std::string& method, int top_n, double mismatch_threshold, const std::string& backend) {
+                                     const std::string& method, int top_n, double mismatch_threshold, const std::string& backend,
+                                     const std::string& precision) {
   if (source_rest.size() != 2 || target.size() != 2) throw py::value_error("source_rest and target must each be a (V, F) pair");
   TransferArguments arguments{mesh_argument(source_rest[0], source_rest[1], "source mesh"), mesh_argument(target[0], target[1], "target mesh"),
                               {}, {}};
@@ -436,12 +447,14 @@ TransferArguments transfer_arguments(const py::tuple& source_rest, const py::tup
   arguments.options.top_n = top_n;
   arguments.options.mismatch_threshold = mismatch_threshold;
   arguments.options.backend = backend_argument(backend);
+  arguments.options.precision = precision_argument(precision);
   return arguments;
 }
 
 py::list transfer_binding(const py::tuple& source_rest, const py::object& source_poses, const py::tuple& target, const py::object& markers,
-                          const std::string& method, int top_n, double mismatch_threshold, const std::string& backend) {
-  auto arguments = transfer_arguments(source_rest, target, markers, method, top_n, mismatch_threshold, backend);
+                          const std::string& method, int top_n, double mismatch_threshold, const std::string& backend,
+                          const std::string& precision) {
+  auto arguments = transfer_arguments(source_rest, target, markers, method, top_n, mismatch_threshold, backend, precision);
   if (!py::isinstance<py::sequence>(source_poses)) throw py::value_error("source_poses must be a list of (n, 3) position arrays");
   std::vector<Eigen::MatrixXd> poses;
   for (const auto pose : source_poses.cast<py::sequence>()) {
@@ -464,8 +477,8 @@ py::list transfer_binding(const py::tuple& source_rest, const py::object& source
 }
 
 py::tuple correspondence_binding(const py::tuple& source_rest, const py::tuple& target, const py::object& markers, int top_n,
-                                 double mismatch_threshold, const std::string& backend) {
-  auto arguments = transfer_arguments(source_rest, target, markers, "correspondence", top_n, mismatch_threshold, backend);
+                                 double mismatch_threshold, const std::string& backend, const std::string& precision) {
+  auto arguments = transfer_arguments(source_rest, target, markers, "correspondence", top_n, mismatch_threshold, backend, precision);
   Eigen::VectorXi source_triangle;
   Eigen::VectorXd distance;
   std::vector<bool> mismatched;
@@ -602,6 +615,10 @@ progress: None or a callable taking one str, called before each set-up stage.
 resolution: 'exact' (every vertex an unknown), 'multiresolution' (the solves on a base mesh of
     about base_vertices vertices, the detail carried; fixed and handle vertices exact) or 'auto'
     (multiresolution from )doc" + std::to_string(kMultiresolutionFrom) + R"doc( vertices on).
+precision: 'double', or 'single': the factor stored in single precision (half its memory), every
+    solve refined against the double matrix to the same accuracy, one or two steps more per solve.
+    A matrix too ill-conditioned for it keeps double, and warnings says so. (Also for
+    harmonic_field, transfer and correspondence.)
 
 Raises ValueError for a wrong shape or dtype, hdeform.InputError for bad data (a handle without
 a fixed vertex in its part of the mesh, an index out of range) and hdeform.SolveError when the
@@ -611,12 +628,12 @@ factorization fails.)doc";
     deformer = hdeform.Deformer(V, F, fixed, [handle], refine="auto")
     bent = deformer.deform([hdeform.Transform(matrix_3x4)])    # (n, 3) float64)doc")
       .def(py::init<const py::object&, const py::object&, const py::object&, const py::object&, const py::object&, const std::string&,
-                    const py::object&, double, double, bool, const py::object&, const std::string&, Eigen::Index>(),
+                    const py::object&, double, double, bool, const py::object&, const std::string&, Eigen::Index, const std::string&>(),
            py::arg("V"), py::arg("F"), py::arg("fixed"), py::arg("handles"), py::arg("roi") = py::none(),
            py::arg("backend") = std::string(to_string(default_backend())), py::arg("refine") = 0,
            py::arg("refine_tolerance") = RefinementOptions{}.tolerance, py::arg("refine_settle") = RefinementOptions{}.settle,
            py::arg("acceleration") = true, py::arg("progress") = py::none(), py::arg("resolution") = "auto",
-           py::arg("base_vertices") = kDefaultBaseVertices,
+           py::arg("base_vertices") = kDefaultBaseVertices, py::arg("precision") = "double",
            deformer_doc.c_str())
       .def("deform", &PyDeformer::deform, py::arg("transforms"), py::arg("refine") = py::none(),
            R"doc(The deformed positions for one transform per handle.
@@ -640,6 +657,7 @@ refinement['converged'] gives the same bits as deform(T, refine='auto').)doc")
       .def_property_readonly("timings", &PyDeformer::timings, "Set-up stages and the last update's stages, a dict of float milliseconds")
       .def_property_readonly("vertex_count", &PyDeformer::vertex_count, "n, the mesh's vertices")
       .def_property_readonly("resolution", &PyDeformer::resolution, "Where the solves run: 'exact' or 'multiresolution'")
+      .def_property_readonly("precision", &PyDeformer::precision, "How the factor is stored: 'double' or 'single'")
       .def_property_readonly("solved_vertex_count", &PyDeformer::solved_vertex_count,
                              "The vertices the solves run on: the base mesh's with multiresolution, else vertex_count")
       .def_property_readonly("handle_count", &PyDeformer::handle_count, "The number of handles: deform() takes one transform each");
@@ -674,18 +692,19 @@ refinement['converged'] gives the same bits as deform(T, refine='auto').)doc")
         "(n, 3) float64 array; amplitude 0 returns V unchanged; a negative or non-finite amplitude raises hdeform.InputError");
   m.def("_cotangent_laplacian_csc", &laplacian_binding, py::arg("V"), py::arg("F"));
   m.def("harmonic_field", &harmonic_field_binding, py::arg("V"), py::arg("F"), py::arg("sources"), py::arg("sinks"),
-        py::arg("backend") = std::string(to_string(default_backend())), "The harmonic field, an (n,) float64 array: 1 at the sources, 0 at the sinks (1-D integer arrays or lists), "
+        py::arg("backend") = std::string(to_string(default_backend())), py::arg("precision") = "double",
+        "The harmonic field, an (n,) float64 array: 1 at the sources, 0 at the sinks (1-D integer arrays or lists), "
         "harmonic elsewhere (V (n, 3) floats, F (m, 3) integers)");
   m.def("transfer", &transfer_binding, py::arg("source_rest"), py::arg("source_poses"), py::arg("target"), py::arg("markers"),
         py::arg("method") = "correspondence", py::arg("top_n") = 0, py::arg("mismatch_threshold") = kDefaultMismatchThreshold,
-        py::arg("backend") = std::string(to_string(default_backend())),
+        py::arg("backend") = std::string(to_string(default_backend())), py::arg("precision") = "double",
         "The source's poses on the target (paper sections 6 and 7). source_rest and target: (V, F) tuples; "
         "source_poses: a list of (n_s, 3) float arrays (the source's vertices in each pose); markers: (k, 2) integer "
         "array or list of (source vertex, target vertex) pairs, k >= 3; method: 'correspondence' or 'interpolation'. "
         "Returns a list of (n_t, 3) float64 arrays, one per pose");
   m.def("correspondence", &correspondence_binding, py::arg("source_rest"), py::arg("target"), py::arg("markers"), py::arg("top_n") = 0,
         py::arg("mismatch_threshold") = kDefaultMismatchThreshold, py::arg("backend") = std::string(to_string(default_backend())),
-        "The triangle correspondence of paper section 6: a tuple of three arrays over the target's triangles: the "
+        py::arg("precision") = "double", "The triangle correspondence of paper section 6: a tuple of three arrays over the target's triangles: the "
         "matched source triangle (int32), the distance in harmonic coordinates (float64) and whether it is a mismatch "
         "(bool). Arguments as for transfer()");
   m.def("render", &render_binding, py::arg("V"), py::arg("F"), py::arg("path"), py::arg("field") = py::none(), py::arg("fixed") = py::none(),

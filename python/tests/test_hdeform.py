@@ -133,6 +133,24 @@ def test_multiresolution_equals_the_command_lines_and_keeps_the_constraints_exac
         hdeform.Deformer(V, F, fixed, handles, resolution="coarse")
 
 
+def test_single_precision_factors_equal_the_command_lines_and_the_double_solve(tmp_path):
+    cactus = hdeform.shape("cactus", 32)
+    V, F, fixed, handles = cactus["V"], cactus["F"], cactus["fixed"], cactus["handles"]
+    expected = cli_edit(tmp_path, "--shape", "cactus", "--resolution", 32, "--precision", "single", "--refine", 3)
+    deformer = hdeform.Deformer(V, F, fixed, handles, refine=3, precision="single")
+    assert deformer.precision == "single"
+    shown = deformer.deform([cactus["transform"]])
+    assert np.array_equal(shown, expected), "the same bits as the command line"
+    in_double = hdeform.Deformer(V, F, fixed, handles, refine=3).deform([cactus["transform"]])
+    diagonal = np.linalg.norm(V.max(axis=0) - V.min(axis=0))
+    assert np.abs(shown - in_double).max() <= 1e-10 * diagonal
+    assert np.array_equal(shown[fixed], V[fixed])
+    field = hdeform.harmonic_field(V, F, handles[0], fixed, precision="single")
+    assert np.abs(field - hdeform.harmonic_field(V, F, handles[0], fixed)).max() <= 1e-10
+    with pytest.raises(ValueError, match="precision"):
+        hdeform.Deformer(V, F, fixed, handles, precision="half")
+
+
 @needs_shared
 def test_a_benchmark_case_equals_the_command_line_bit_for_bit(tmp_path):
     base = SHARED / "deformation-benchmark" / "bar"
