@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 #include <limits>
+#include <stdexcept>
 
 #include "hdeform/trace.h"
 #include "triangular_sweeps.h"
@@ -51,18 +52,20 @@ double probe_value(std::size_t k) {
 
 }  // namespace
 
-SingleFactor::SingleFactor(const FactorPattern& pattern, std::span<const double> row_value, std::span<const double> column_value,
-                           PermutedMatrix matrix)
-    : matrix_(std::move(matrix)) {
-  const trace::Scope traced("single-precision factor", "set-up");
-  row_value_.resize(pattern.nonzeros());
-  column_value_.resize(pattern.nonzeros());
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, pattern.nonzeros(), 1 << 16), [&](const tbb::blocked_range<std::size_t>& range) {
-    for (std::size_t i = range.begin(); i != range.end(); ++i) {
-      row_value_[i] = static_cast<float>(row_value[i]);
-      column_value_[i] = static_cast<float>(column_value[i]);
-    }
+UninitializedVector<float> SingleFactor::rounded(std::span<const double> values) {
+  UninitializedVector<float> single(values.size());
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, values.size(), 1 << 16), [&](const tbb::blocked_range<std::size_t>& range) {
+    for (std::size_t i = range.begin(); i != range.end(); ++i) single[i] = static_cast<float>(values[i]);
   });
+  return single;
+}
+
+SingleFactor::SingleFactor(const FactorPattern& pattern, UninitializedVector<float> row_value, UninitializedVector<float> column_value,
+                           PermutedMatrix matrix)
+    : row_value_(std::move(row_value)), column_value_(std::move(column_value)), matrix_(std::move(matrix)) {
+  if (row_value_.size() != pattern.nonzeros() || column_value_.size() != pattern.nonzeros()) {
+    throw std::logic_error("SingleFactor: the values are not of this pattern");
+  }
 }
 
 void SingleFactor::single_solve(const FactorPattern& pattern, double* block, int columns, int stride) const {

@@ -54,8 +54,11 @@ struct RefinementCounts {
 
 class SingleFactor {
  public:
-  // L's double values rounded to single precision, and A (P A Pᵀ) for the residuals.
-  SingleFactor(const FactorPattern& pattern, std::span<const double> row_value, std::span<const double> column_value, PermutedMatrix matrix);
+  // L in single precision in both layouts, and A (P A Pᵀ) for the residuals.
+  SingleFactor(const FactorPattern& pattern, UninitializedVector<float> row_value, UninitializedVector<float> column_value,
+               PermutedMatrix matrix);
+  // L's double values rounded to single precision.
+  static UninitializedVector<float> rounded(std::span<const double> values);
 
   // Measures the contraction of one step on a known solution. Returns the reason single
   // precision does not serve this matrix, or nullopt when it does.
@@ -65,6 +68,7 @@ class SingleFactor {
   // Safe to call concurrently; allocation-free once as many workspaces as concurrent calls exist.
   void solve(const FactorPattern& pattern, double* block, int columns, int stride) const;
 
+  const PermutedMatrix& matrix() const { return matrix_; }
   double contraction() const { return contraction_; }    // error shrink of one step, measured
   RefinementCounts counts() const;
 

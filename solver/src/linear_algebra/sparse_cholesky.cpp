@@ -200,9 +200,31 @@ std::vector<int> rows_of_ranks(std::span<const int> rank) {
   return factor_row;
 }
 
-// Returns P A Pᵀ, which the numeric factorization read (and single precision keeps for residuals).
-detail::PermutedMatrix factor_with_tree(const Eigen::SparseMatrix<double>& matrix, std::span<const int> ordering,
-                                        const std::shared_ptr<const SparseCholesky::Analysis>& reuse, SparseCholesky::Factor& factor) {
+// Keeps L in single precision when the probe says it serves this matrix, else in double and says
+// why. With `refactor` (the tree backend, whose double values are already released) the double
+// factor is computed again from A when the probe refuses; otherwise (another backend's L,
+// rounded) the double values are kept until the probe has spoken.
+void keep_single_precision(detail::UninitializedVector<float> rows, detail::UninitializedVector<float> columns,
+                           detail::PermutedMatrix permuted, SparseCholesky::Factor& factor, bool refactor) {
+  const detail::FactorPattern& pattern = factor.analysis->pattern;
+  auto single = std::make_unique<detail::SingleFactor>(pattern, std::move(rows), std::move(columns), std::move(permuted));
+  if (auto reason = single->calibrate(pattern)) {
+    factor.precision_note = std::move(*reason);
+    if (refactor) {
+      const trace::Scope traced("numeric factorization, in double", "set-up");
+      if (!detail::factor_numeric(single->matrix(), pattern, factor.row_value, factor.column_value)) {
+        throw SolveError("the Laplacian system is not positive definite (the supernodal factorization failed)");
+      }
+    }
+    return;
+  }
+  factor.single = std::move(single);
+  detail::UninitializedVector<double>().swap(factor.row_value);
+  detail::UninitializedVector<double>().swap(factor.column_value);
+}
+
+void factor_with_tree(const Eigen::SparseMatrix<double>& matrix, std::span<const int> ordering,
+                      const std::shared_ptr<const SparseCholesky::Analysis>& reuse, FactorPrecision precision, SparseCholesky::Factor& factor) {
   std::shared_ptr<const SparseCholesky::Analysis> analysis;
   detail::PermutedMatrix permuted;
   if (reuse && reuse->analysed(matrix)) {
@@ -230,28 +252,24 @@ detail::PermutedMatrix factor_with_tree(const Eigen::SparseMatrix<double>& matri
     fresh->pattern = detail::analyse_pattern(permuted, tbb::this_task_arena::max_concurrency());
     analysis = std::move(fresh);
   }
-  {
+  factor.analysis = analysis;
+  const detail::FactorPattern& pattern = analysis->pattern;
+  const auto not_definite = [] { return SolveError("the Laplacian system is not positive definite (the supernodal factorization failed)"); };
+  if (precision == FactorPrecision::Double) {
     const trace::Scope traced("numeric factorization", "set-up");
-    if (!detail::factor_numeric(permuted, analysis->pattern, factor.row_value, factor.column_value)) {
-      throw SolveError("the Laplacian system is not positive definite (the supernodal factorization failed)");
-    }
-  }
-  factor.analysis = std::move(analysis);
-  return permuted;
-}
-
-// Rounds L to single precision when one correction step serves this matrix; else keeps the
-// double values and says why.
-void use_single_precision(detail::PermutedMatrix permuted, SparseCholesky::Factor& factor) {
-  const detail::FactorPattern& pattern = factor.analysis->pattern;
-  auto single = std::make_unique<detail::SingleFactor>(pattern, factor.row_value, factor.column_value, std::move(permuted));
-  if (auto reason = single->calibrate(pattern)) {
-    factor.precision_note = std::move(*reason);
+    if (!detail::factor_numeric(permuted, pattern, factor.row_value, factor.column_value)) throw not_definite();
     return;
   }
-  factor.single = std::move(single);
-  detail::UninitializedVector<double>().swap(factor.row_value);
+  // The rows are never read back while factoring: written in single precision straight away. The
+  // columns are rounded after, and their double values released before the probe.
+  detail::UninitializedVector<float> rows;
+  {
+    const trace::Scope traced("numeric factorization, rows in single precision", "set-up");
+    if (!detail::factor_numeric(permuted, pattern, rows, factor.column_value)) throw not_definite();
+  }
+  auto columns = detail::SingleFactor::rounded(factor.column_value);
   detail::UninitializedVector<double>().swap(factor.column_value);
+  keep_single_precision(std::move(rows), std::move(columns), std::move(permuted), factor, true);
 }
 
 }  // namespace
@@ -300,9 +318,8 @@ void SparseCholesky::factor(const Eigen::SparseMatrix<double>& matrix, SolverBac
   factor_ = std::make_unique<Factor>();
   if (matrix.rows() == 0) return;
   try {
-    detail::PermutedMatrix permuted;
     if (backend == SolverBackend::Tree) {
-      permuted = factor_with_tree(matrix, ordering, reuse, *factor_);
+      factor_with_tree(matrix, ordering, reuse, precision, *factor_);
     } else {
       Eigen::SparseMatrix<double> lower(0, 0);
       std::vector<int> factor_row;
@@ -314,9 +331,11 @@ void SparseCholesky::factor(const Eigen::SparseMatrix<double>& matrix, SolverBac
 #endif
       const trace::Scope traced("factor layouts", "set-up");
       adopt(lower, std::move(factor_row), *factor_);
-      if (precision == FactorPrecision::Single) permuted = detail::permuted_matrix(matrix, factor_->analysis->factor_row);
+      if (precision == FactorPrecision::Single) {
+        keep_single_precision(detail::SingleFactor::rounded(factor_->row_value), detail::SingleFactor::rounded(factor_->column_value),
+                              detail::permuted_matrix(matrix, factor_->analysis->factor_row), *factor_, false);
+      }
     }
-    if (precision == FactorPrecision::Single) use_single_precision(std::move(permuted), *factor_);
   } catch (const std::bad_alloc&) {
     throw SolveError("out of memory while factoring a " + std::to_string(matrix.rows()) + "-unknown system");
   }

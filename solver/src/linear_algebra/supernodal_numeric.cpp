@@ -24,11 +24,13 @@ struct Workspace {
   std::vector<double> product;
 };
 
-// Views of the factor's column layout as the supernodes' panels.
+// Views of the factor's column layout as the supernodes' panels. The row layout is only written,
+// so it may be stored in single precision; the column layout is read back by the updates.
+template <class RowValue>
 struct Layout {
   const FactorPattern& pattern;
   double* column_value;
-  double* row_value;
+  RowValue* row_value;
 
   int first_column(int s) const { return pattern.supernodes.first_column[static_cast<std::size_t>(s)]; }
   // The rows of supernode s: its first column's rows, diagonal first.
@@ -42,7 +44,8 @@ struct Layout {
 
 // panel −= L_d(rows first.., :) · L_d(rows first..last, :)ᵀ, each product entry added to the
 // panel entry of its rows: the update of supernode d on the supernode whose panel this is.
-void subtract_update(const Layout& layout, const Supernodes::Update& update, int panel_first_column, int panel_rows, Workspace& w) {
+template <class RowValue>
+void subtract_update(const Layout<RowValue>& layout, const Supernodes::Update& update, int panel_first_column, int panel_rows, Workspace& w) {
   const int d = update.from;
   const int width = layout.pattern.supernodes.width(d);
   const int* rows = layout.rows(d) + update.first;
@@ -119,7 +122,8 @@ bool factor_panel(double* panel, int rows, int width) {
   return true;
 }
 
-bool factor_supernode(const PermutedMatrix& matrix, const Layout& layout, int s, Workspace& w) {
+template <class RowValue>
+bool factor_supernode(const PermutedMatrix& matrix, const Layout<RowValue>& layout, int s, Workspace& w) {
   const Supernodes& super = layout.pattern.supernodes;
   const int first = layout.first_column(s);
   const int width = super.width(s);
@@ -148,15 +152,16 @@ bool factor_supernode(const PermutedMatrix& matrix, const Layout& layout, int s,
   }
   const int* position = super.row_position.data() + super.rows_at[static_cast<std::size_t>(s)];
   for (int i = 0; i < m; ++i) {
-    double* out = layout.row_value + position[i];
-    for (int c = 0, count = std::min(i + 1, width); c < count; ++c) out[c] = panel[static_cast<std::ptrdiff_t>(c) * m + i];
+    RowValue* out = layout.row_value + position[i];
+    for (int c = 0, count = std::min(i + 1, width); c < count; ++c) out[c] = static_cast<RowValue>(panel[static_cast<std::ptrdiff_t>(c) * m + i]);
   }
   return true;
 }
 
 }  // namespace
 
-bool factor_numeric(const PermutedMatrix& matrix, const FactorPattern& pattern, UninitializedVector<double>& row_value,
+template <class RowValue>
+bool factor_numeric(const PermutedMatrix& matrix, const FactorPattern& pattern, UninitializedVector<RowValue>& row_value,
                     UninitializedVector<double>& column_value) {
   const auto size = static_cast<std::size_t>(pattern.size());
   const Supernodes& super = pattern.supernodes;
@@ -171,12 +176,15 @@ bool factor_numeric(const PermutedMatrix& matrix, const FactorPattern& pattern, 
     w.target.resize(tallest);
     w.sum.resize(tallest);
   }
-  const Layout layout{pattern, column_value.data(), row_value.data()};
+  const Layout<RowValue> layout{pattern, column_value.data(), row_value.data()};
   std::atomic<bool> failed{false};
   for_each_node(super.schedule, workspaces, failed, [&](Workspace& w, int s) {
     if (!factor_supernode(matrix, layout, s, w)) failed.store(true, std::memory_order_relaxed);
   });
   return !failed.load();
 }
+
+template bool factor_numeric(const PermutedMatrix&, const FactorPattern&, UninitializedVector<double>&, UninitializedVector<double>&);
+template bool factor_numeric(const PermutedMatrix&, const FactorPattern&, UninitializedVector<float>&, UninitializedVector<double>&);
 
 }  // namespace hdeform::detail
