@@ -11,15 +11,24 @@ namespace {
 
 class BenchmarkCase : public ::testing::TestWithParam<std::string> {};
 
+// A scenario as the shared meshes hold it: FOLDER/NAME.obj, NAME-fixed.txt, NAME-handle.txt and
+// NAME-transform.txt.
+struct EditCase {
+  Mesh mesh;
+  EditConstraints constraints;
+  HandleTransform transform;
+};
+EditCase read_case(const std::filesystem::path& folder, const std::string& name) {
+  EditCase scenario{read_obj(folder / (name + ".obj")), {}, read_handle_transform(folder / (name + "-transform.txt"))};
+  scenario.constraints.fixed = read_vertex_indices(folder / (name + "-fixed.txt"), scenario.mesh.vertex_count());
+  scenario.constraints.handles = {read_vertex_indices(folder / (name + "-handle.txt"), scenario.mesh.vertex_count())};
+  return scenario;
+}
+
 TEST_P(BenchmarkCase, KeepsConstraintsExactAndStaysFinite) {
   HDEFORM_REQUIRE_SHARED_MESHES();
-  const auto folder = test::shared_meshes() / "deformation-benchmark";
   const std::string name = GetParam();
-  const Mesh mesh = read_obj(folder / (name + ".obj"));
-  EditConstraints constraints;
-  constraints.fixed = read_vertex_indices(folder / (name + "-fixed.txt"), mesh.vertex_count());
-  constraints.handles = {read_vertex_indices(folder / (name + "-handle.txt"), mesh.vertex_count())};
-  const auto transform = read_handle_transform(folder / (name + "-transform.txt"));
+  const auto [mesh, constraints, transform] = read_case(test::shared_meshes() / "deformation-benchmark", name);
 
   Deformer deformer(mesh, constraints);
   Eigen::MatrixXd positions;
@@ -46,7 +55,8 @@ TEST_P(BenchmarkCase, KeepsConstraintsExactAndStaysFinite) {
 
 // The update and the refinement with the factor stored in single precision, against the double
 // factor: within 1e-10 of the bounding-box diagonal (the float factor alone is about 1e-7 off).
-void expect_single_precision_matches_double(const Mesh& mesh, const EditConstraints& constraints, const HandleTransform& transform) {
+void expect_single_precision_matches_double(const EditCase& scenario) {
+  const auto& [mesh, constraints, transform] = scenario;
   DeformerOptions options;
   options.resolution = Resolution::Exact;
   Deformer in_double(mesh, constraints, options);
@@ -72,23 +82,12 @@ void expect_single_precision_matches_double(const Mesh& mesh, const EditConstrai
 
 TEST_P(BenchmarkCase, SinglePrecisionFactorsMatchTheDoubleSolve) {
   HDEFORM_REQUIRE_SHARED_MESHES();
-  const auto folder = test::shared_meshes() / "deformation-benchmark";
-  const std::string name = GetParam();
-  const Mesh mesh = read_obj(folder / (name + ".obj"));
-  EditConstraints constraints;
-  constraints.fixed = read_vertex_indices(folder / (name + "-fixed.txt"), mesh.vertex_count());
-  constraints.handles = {read_vertex_indices(folder / (name + "-handle.txt"), mesh.vertex_count())};
-  expect_single_precision_matches_double(mesh, constraints, read_handle_transform(folder / (name + "-transform.txt")));
+  expect_single_precision_matches_double(read_case(test::shared_meshes() / "deformation-benchmark", GetParam()));
 }
 
 TEST(Buddha, SinglePrecisionFactorsMatchTheDoubleSolve) {
   HDEFORM_REQUIRE_SHARED_MESHES();
-  const auto folder = test::shared_meshes() / "buddha";
-  const Mesh mesh = read_obj(folder / "buddha-206k.obj");
-  EditConstraints constraints;
-  constraints.fixed = read_vertex_indices(folder / "buddha-206k-fixed.txt", mesh.vertex_count());
-  constraints.handles = {read_vertex_indices(folder / "buddha-206k-handle.txt", mesh.vertex_count())};
-  expect_single_precision_matches_double(mesh, constraints, read_handle_transform(folder / "buddha-206k-transform.txt"));
+  expect_single_precision_matches_double(read_case(test::shared_meshes() / "buddha", "buddha-206k"));
 }
 
 INSTANTIATE_TEST_SUITE_P(DeformationBenchmark, BenchmarkCase, ::testing::Values("bar", "cactus", "cylinder", "plane"));
@@ -100,10 +99,7 @@ INSTANTIATE_TEST_SUITE_P(DeformationBenchmark, BenchmarkCase, ::testing::Values(
 TEST(BenchmarkCylinder, ATranslationThatReversesPastTheRestShapeRefinesAsAFreshDeformer) {
   HDEFORM_REQUIRE_SHARED_MESHES();
   const auto folder = test::shared_meshes() / "deformation-benchmark";
-  const Mesh mesh = read_obj(folder / "cylinder.obj");
-  EditConstraints constraints;
-  constraints.fixed = read_vertex_indices(folder / "cylinder-fixed.txt", mesh.vertex_count());
-  constraints.handles = {read_vertex_indices(folder / "cylinder-handle.txt", mesh.vertex_count())};
+  const auto [mesh, constraints, unused_transform] = read_case(folder, "cylinder");
   DeformerOptions options;
   options.prepare_refinement = true;
   Deformer driven(mesh, constraints, options);

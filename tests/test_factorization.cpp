@@ -2,7 +2,6 @@
 #include <Eigen/SparseCholesky>
 #include <tbb/task_arena.h>
 
-#include <random>
 #include <span>
 #include <stdexcept>
 
@@ -28,42 +27,26 @@ Eigen::SparseMatrix<double> spd_matrix(const Mesh& mesh) {
   return laplacian + 1e-3 * identity;
 }
 
-Eigen::MatrixXd random_matrix(Eigen::Index rows, Eigen::Index columns, unsigned seed) {
-  std::mt19937 random(seed);
-  std::uniform_real_distribution<double> uniform(-1.0, 1.0);
-  Eigen::MatrixXd matrix(rows, columns);
-  for (Eigen::Index i = 0; i < matrix.size(); ++i) matrix(i) = uniform(random);
-  return matrix;
-}
-
-std::vector<SolverBackend> backends() {
-  std::vector<SolverBackend> available;
-  for (auto backend : kSolverBackends) {
-    if (backend_available(backend)) available.push_back(backend);
-  }
-  return available;
-}
-
 TEST(SparseCholesky, MatchesADenseSolve) {
   const auto matrix = spd_matrix(make_shape(ShapeKind::Cactus, 12).mesh);
-  const Eigen::MatrixXd rhs = random_matrix(matrix.rows(), 5, 3);
+  const Eigen::MatrixXd rhs = test::random_matrix(matrix.rows(), 5, 3);
   const Eigen::MatrixXd expected = Eigen::MatrixXd(matrix).ldlt().solve(rhs);
-  for (const auto backend : backends()) {
+  for (const auto backend : test::available_backends()) {
     SparseCholesky factor;
     factor.factor(matrix, backend);
     EXPECT_LE(test::relative_difference(factor.solve(rhs), expected), 1e-10) << to_string(backend);
     // More columns than one kernel pass takes (8): solved in chunks, same answer.
-    const Eigen::MatrixXd wide_rhs = random_matrix(matrix.rows(), 19, 4);
+    const Eigen::MatrixXd wide_rhs = test::random_matrix(matrix.rows(), 19, 4);
     const Eigen::MatrixXd wide_expected = Eigen::MatrixXd(matrix).ldlt().solve(wide_rhs);
     EXPECT_LE(test::relative_difference(factor.solve(wide_rhs), wide_expected), 1e-10) << to_string(backend);
   }
 }
 
 TEST(SparseCholesky, BackendsAgree) {
-  if (backends().size() < 2) GTEST_SKIP() << "this build has only the Eigen backend";
+  if (test::available_backends().size() < 2) GTEST_SKIP() << "this build has only the Eigen backend";
   const Mesh mesh = make_shape(ShapeKind::Cactus, 32).mesh;
   const auto matrix = spd_matrix(mesh);
-  const Eigen::MatrixXd rhs = random_matrix(matrix.rows(), 3, 5);
+  const Eigen::MatrixXd rhs = test::random_matrix(matrix.rows(), 3, 5);
   SparseCholesky eigen, cholmod;
   eigen.factor(matrix, SolverBackend::Eigen);
   cholmod.factor(matrix, SolverBackend::Cholmod);
@@ -87,7 +70,7 @@ TEST(SparseCholesky, RejectsAnIndefiniteMatrix) {
   Eigen::SparseMatrix<double> zero(1, 1);
   zero.insert(0, 0) = 0.0;
   for (const auto& matrix : {indefinite, dense({-1.0}, 1), zero, dense({1.0, 2.0, 2.0, 1.0}, 2)}) {
-    for (const auto backend : backends()) {
+    for (const auto backend : test::available_backends()) {
       SparseCholesky factor;
       EXPECT_THROW(factor.factor(matrix, backend), SolveError) << to_string(backend) << ", " << matrix.rows() << " unknowns";
     }
@@ -114,7 +97,7 @@ Eigen::MatrixXd solve_in_arena(const Eigen::SparseMatrix<double>& matrix, const 
 
 TEST(TreeFactorization, IsBitIdenticalOnAnyNumberOfThreads) {
   const auto matrix = split_matrix();
-  const Eigen::MatrixXd rhs = random_matrix(matrix.rows(), 3, 11);
+  const Eigen::MatrixXd rhs = test::random_matrix(matrix.rows(), 3, 11);
   std::size_t one_subtrees = 0, two_subtrees = 0, three_subtrees = 0;
   const Eigen::MatrixXd one = solve_in_arena(matrix, rhs, 1, &one_subtrees);
   const Eigen::MatrixXd two = solve_in_arena(matrix, rhs, 2, &two_subtrees);
@@ -132,7 +115,7 @@ TEST(TreeFactorization, IsBitIdenticalOnAnyNumberOfThreads) {
 TEST(TreeFactorization, ManyColumnsSideBySideGiveEachKernelsOwnSolve) {
   const auto matrix = split_matrix();
   const int columns = 44;  // five full kernels and one of four
-  const Eigen::MatrixXd rhs = random_matrix(matrix.rows(), columns, 17);
+  const Eigen::MatrixXd rhs = test::random_matrix(matrix.rows(), columns, 17);
   for (const int threads : {2, 3}) {
     tbb::task_arena arena(threads);
     arena.execute([&] {
@@ -150,7 +133,7 @@ TEST(TreeFactorization, ManyColumnsSideBySideGiveEachKernelsOwnSolve) {
 
 TEST(TreeFactorization, AgreesWithSequentialEigenAndADenseSolve) {
   const auto matrix = split_matrix();
-  const Eigen::MatrixXd rhs = random_matrix(matrix.rows(), 2, 12);
+  const Eigen::MatrixXd rhs = test::random_matrix(matrix.rows(), 2, 12);
   Eigen::SimplicialLLT<Eigen::SparseMatrix<double>> reference(matrix);
   ASSERT_EQ(reference.info(), Eigen::Success);
   const Eigen::MatrixXd expected = reference.solve(rhs);
@@ -260,7 +243,7 @@ TEST(TreeFactorization, SupernodesGiveTheSimplicialFactorEntryByEntry) {
 
 TEST(TreeFactorization, WideSupernodesAreBitIdenticalOnAnyNumberOfThreadsAndDefiniteOnlyWhenTheMatrixIs) {
   const auto matrix = matrix_with_a_dense_top();
-  const Eigen::MatrixXd rhs = random_matrix(matrix.rows(), 3, 21);
+  const Eigen::MatrixXd rhs = test::random_matrix(matrix.rows(), 3, 21);
   const Eigen::MatrixXd one = solve_in_arena(matrix, rhs, 1);
   EXPECT_EQ(one, solve_in_arena(matrix, rhs, 2));
   EXPECT_EQ(one, solve_in_arena(matrix, rhs, 3));
@@ -275,7 +258,7 @@ TEST(TreeFactorization, ReusedAnalysisGivesTheFreshSolution) {
   const auto matrix = split_matrix();
   Eigen::SparseMatrix<double> scaled = 2.5 * matrix;  // same pattern, other values
   for (int k = 0; k < scaled.outerSize(); ++k) scaled.coeffRef(k, k) += 0.01 * (k % 7);
-  const Eigen::MatrixXd rhs = random_matrix(matrix.rows(), 3, 13);
+  const Eigen::MatrixXd rhs = test::random_matrix(matrix.rows(), 3, 13);
   SparseCholesky first, reused, fresh;
   first.factor(matrix, SolverBackend::Tree);
   EXPECT_FALSE(first.reused_analysis());
@@ -304,7 +287,7 @@ TEST(TreeFactorization, AGivenOrderIsFollowed) {
   SparseCholesky factor;
   factor.factor(matrix, SolverBackend::Tree, reversed);
   for (std::size_t i = 0; i < reversed.size(); ++i) EXPECT_EQ(factor.factor_row()[i], static_cast<int>(reversed.size() - 1 - i));
-  const Eigen::MatrixXd rhs = random_matrix(matrix.rows(), 2, 14);
+  const Eigen::MatrixXd rhs = test::random_matrix(matrix.rows(), 2, 14);
   EXPECT_LE(test::relative_difference(factor.solve(rhs), Eigen::MatrixXd(Eigen::MatrixXd(matrix).ldlt().solve(rhs))), 1e-10);
   EXPECT_THROW(factor.factor(matrix, SolverBackend::Tree, std::span(reversed).first(3)), std::invalid_argument);
 }
@@ -410,7 +393,7 @@ TEST(ColumnBlocks, EverySchedulePartitionsColumnsAndGivesIdenticalBits) {
   const auto matrix = spd_matrix(make_shape(ShapeKind::Cactus, 16).mesh);
   SparseCholesky factor;
   factor.factor(matrix, SolverBackend::Eigen);
-  const Eigen::MatrixXd rhs = random_matrix(matrix.rows(), 5, 9);
+  const Eigen::MatrixXd rhs = test::random_matrix(matrix.rows(), 5, 9);
   std::vector<Eigen::MatrixXd> results;
   for (const auto schedule : {SolveSchedule::Blocked, SolveSchedule::PerColumn, SolveSchedule::ThreadGroups}) {
     for (const int threads : {1, 2, 3}) {
@@ -452,8 +435,8 @@ TEST(DirichletSystem, SolvesTheConstrainedProblemLikeADenseReference) {
     }
   }
   const auto partition = partition_vertices(mesh, weights, constraints);
-  const Eigen::MatrixXd source = random_matrix(mesh.vertex_count(), 2, 11);
-  Eigen::MatrixXd values = random_matrix(mesh.vertex_count(), 2, 12);  // constrained rows: Dirichlet data
+  const Eigen::MatrixXd source = test::random_matrix(mesh.vertex_count(), 2, 11);
+  Eigen::MatrixXd values = test::random_matrix(mesh.vertex_count(), 2, 12);  // constrained rows: Dirichlet data
   const Eigen::MatrixXd dirichlet = values;
 
   // Dense reference: eliminate the constrained rows and columns by hand.
@@ -470,7 +453,7 @@ TEST(DirichletSystem, SolvesTheConstrainedProblemLikeADenseReference) {
   for (std::size_t i = 0; i < free.size(); ++i) rhs.row(static_cast<Eigen::Index>(i)) = source.row(free[i]);
   const Eigen::MatrixXd expected = free_block.ldlt().solve(rhs - coupling * known);
 
-  for (const auto backend : backends()) {
+  for (const auto backend : test::available_backends()) {
     const DirichletSystem system(laplacian, partition, backend);
     Eigen::MatrixXd solved = dirichlet;
     system.solve(solved, &source);

@@ -2,7 +2,6 @@
 #include <Eigen/Dense>
 #include <tbb/task_arena.h>
 
-#include <random>
 
 #include "hdeform/deformer.h"
 #include "hdeform/dirichlet_system.h"
@@ -13,14 +12,6 @@
 
 namespace hdeform {
 namespace {
-
-Eigen::MatrixXd random_matrix(Eigen::Index rows, Eigen::Index columns, unsigned seed) {
-  std::mt19937 random(seed);
-  std::uniform_real_distribution<double> uniform(-1.0, 1.0);
-  Eigen::MatrixXd matrix(rows, columns);
-  for (Eigen::Index i = 0; i < matrix.size(); ++i) matrix(i) = uniform(random);
-  return matrix;
-}
 
 // A Laplacian made definite by a small shift: well conditioned enough for single precision.
 Eigen::SparseMatrix<double> shifted_laplacian(const Mesh& mesh) {
@@ -46,18 +37,10 @@ Eigen::SparseMatrix<double> chain(int n) {
   return matrix;
 }
 
-std::vector<SolverBackend> backends() {
-  std::vector<SolverBackend> available;
-  for (auto backend : kSolverBackends) {
-    if (backend_available(backend)) available.push_back(backend);
-  }
-  return available;
-}
-
 TEST(SinglePrecision, MatchesTheDoubleSolveAndADenseOne) {
   const auto matrix = shifted_laplacian(make_shape(ShapeKind::Cactus, 12).mesh);
   const Eigen::MatrixXd dense(matrix);
-  for (const auto backend : backends()) {
+  for (const auto backend : test::available_backends()) {
     SCOPED_TRACE(std::string(to_string(backend)));
     SparseCholesky in_double, in_single;
     in_double.factor(matrix, backend);
@@ -67,7 +50,7 @@ TEST(SinglePrecision, MatchesTheDoubleSolveAndADenseOne) {
     EXPECT_TRUE(in_single.precision_note().empty());
     // One kernel pass (5 columns) and several (19: more than the 8 one pass takes).
     for (const int columns : {5, 19}) {
-      const Eigen::MatrixXd rhs = random_matrix(matrix.rows(), columns, static_cast<unsigned>(columns));
+      const Eigen::MatrixXd rhs = test::random_matrix(matrix.rows(), columns, static_cast<unsigned>(columns));
       const Eigen::MatrixXd expected = dense.ldlt().solve(rhs);
       const Eigen::MatrixXd solved = in_single.solve(rhs);
       // The float factor alone is about 1e-7 off.
@@ -93,7 +76,7 @@ TEST(SinglePrecision, GivesTheSameBitsOnAnyNumberOfThreadsAndConcurrently) {
   SparseCholesky factor;
   factor.factor(matrix, SolverBackend::Tree, {}, nullptr, FactorPrecision::Single);
   ASSERT_EQ(factor.precision(), FactorPrecision::Single);
-  const Eigen::MatrixXd rhs = random_matrix(matrix.rows(), 3, 7);
+  const Eigen::MatrixXd rhs = test::random_matrix(matrix.rows(), 3, 7);
   Eigen::MatrixXd on_one, on_two;
   tbb::task_arena(1).execute([&] { on_one = factor.solve(rhs); });
   tbb::task_arena(2).execute([&] { on_two = factor.solve(rhs); });
@@ -124,7 +107,7 @@ TEST(SinglePrecision, RefusesAMatrixTooIllConditionedAndSaysSo) {
   Eigen::VectorXd known(matrix.rows());
   for (Eigen::Index i = 0; i < known.size(); ++i) known(i) = std::sin(0.001 * static_cast<double>(i));
   const Eigen::VectorXd rhs = matrix * known;
-  for (const auto backend : backends()) {
+  for (const auto backend : test::available_backends()) {
     SCOPED_TRACE(std::string(to_string(backend)));
     SparseCholesky long_chain;
     long_chain.factor(matrix, backend, {}, nullptr, FactorPrecision::Single);

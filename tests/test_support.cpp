@@ -78,6 +78,22 @@ void TempDir::write(const std::string& name, const std::string& content) const {
   out << content;
 }
 
+Eigen::MatrixXd random_matrix(Eigen::Index rows, Eigen::Index columns, unsigned seed) {
+  std::mt19937 random(seed);
+  std::uniform_real_distribution<double> uniform(-1.0, 1.0);
+  Eigen::MatrixXd matrix(rows, columns);
+  for (Eigen::Index i = 0; i < matrix.size(); ++i) matrix(i) = uniform(random);
+  return matrix;
+}
+
+std::vector<SolverBackend> available_backends() {
+  std::vector<SolverBackend> available;
+  for (auto backend : kSolverBackends) {
+    if (backend_available(backend)) available.push_back(backend);
+  }
+  return available;
+}
+
 double relative_difference(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) {
   const double scale = b.cwiseAbs().maxCoeff();
   const double difference = (a - b).cwiseAbs().maxCoeff();

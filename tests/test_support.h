@@ -8,8 +8,10 @@
 #include <Eigen/SparseCore>
 #include <filesystem>
 #include <string>
+#include <vector>
 
 #include "hdeform/mesh.h"
+#include "hdeform/sparse_cholesky.h"
 
 namespace hdeform::test {
 
@@ -59,5 +61,10 @@ class TempDir {
 
 // Maximum absolute entry of A − B over the maximum absolute entry of B (0 if B is zero).
 double relative_difference(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b);
+
+// Entries uniform in [−1, 1], the same for the same seed.
+Eigen::MatrixXd random_matrix(Eigen::Index rows, Eigen::Index columns, unsigned seed);
+// The factorization backends this build has.
+std::vector<SolverBackend> available_backends();
 
 }  // namespace hdeform::test
