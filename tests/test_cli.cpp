@@ -309,6 +309,20 @@ TEST_F(TransferCli, WritesEveryPoseAndReportsCountsTimingsAndErrors) {
   EXPECT_TRUE(std::filesystem::exists(path("interp/bent.obj")));
 }
 
+// Every factor of a transfer (coordinates, mismatch fill, reconstruction) in single precision:
+// the same poses to 1e-10 of the diagonal.
+TEST_F(TransferCli, SinglePrecisionFactorsGiveTheSamePoses) {
+  for (const std::string precision : {"double", "single"}) {
+    const auto result = run(dir, transfer("--source-pose " + path("bent.obj") + " --out-dir " + path(precision) + " --precision " + precision));
+    ASSERT_EQ(result.exit_code, 0) << result.err;
+    const auto report = nlohmann::json::parse(result.out);
+    EXPECT_EQ(report["precision"], precision);
+    EXPECT_EQ(report["single_precision_factorizations"], precision == "single" ? report["factorizations"].get<int>() : 0);
+  }
+  const double diagonal = (rest.positions.colwise().maxCoeff() - rest.positions.colwise().minCoeff()).norm();
+  EXPECT_LE((read_obj(path("single/bent.obj")).positions - read_obj(path("double/bent.obj")).positions).cwiseAbs().maxCoeff(), 1e-10 * diagonal);
+}
+
 TEST_F(TransferCli, BadInputExitsWithOneAndWritesNothing) {
   dir.write("bad-markers.txt", "0 0\n1 999999\n2 2\n");
   auto result = run(dir, "transfer --source-rest " + path("rest.obj") + " --target " + path("rest.obj") + " --markers " + path("bad-markers.txt") +

@@ -62,6 +62,8 @@ nlohmann::json describe_setup(const DeformationTransfer& transfer) {
                            {"source", {{"vertices", transfer.source_rest().vertex_count()}, {"triangles", transfer.source_rest().triangle_count()}}},
                            {"target", {{"vertices", transfer.target_rest().vertex_count()}, {"triangles", transfer.target_rest().triangle_count()}}},
                            {"factorizations", transfer.factorizations()},
+                           {"precision", to_string(transfer.options().precision)},
+                           {"single_precision_factorizations", transfer.single_precision_factorizations()},
                            {"setup_ms", setup},
                            {"warnings", transfer.warnings()}};
   if (transfer.options().method == TransferMethod::Correspondence) {

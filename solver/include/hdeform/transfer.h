@@ -113,6 +113,8 @@ class DeformationTransfer {
 
   /// Factorizations made so far: each matrix is factored once, however many poses follow.
   std::size_t factorizations() const { return factorizations_; }
+  /// Of them, the factors kept in single precision (TransferOptions::precision).
+  std::size_t single_precision_factorizations() const { return single_precision_factorizations_; }
   /// Where the set-up's time went.
   const TransferSetupTimings& setup_timings() const { return setup_; }
   /// Where the last pose's time went.
@@ -149,6 +151,7 @@ class DeformationTransfer {
   std::vector<Eigen::Matrix3d> source_gradients_;
   std::vector<Eigen::Matrix3d> target_maps_;
   std::size_t factorizations_ = 0;
+  std::size_t single_precision_factorizations_ = 0;
   TransferSetupTimings setup_;
   TransferPoseTimings last_pose_;
   std::vector<std::string> warnings_;

@@ -221,6 +221,7 @@ std::unique_ptr<DirichletSystem> DeformationTransfer::factor(const Mesh& mesh, c
   auto system = std::make_unique<DirichletSystem>(operators.laplacian, partition, options_.backend, operators.elimination_rank,
                                                   nullptr, options_.precision);
   ++factorizations_;
+  if (system->factor().precision() == FactorPrecision::Single) ++single_precision_factorizations_;
   const std::string& note = system->factor().precision_note();
   if (!note.empty() && std::find(warnings_.begin(), warnings_.end(), note) == warnings_.end()) warnings_.push_back(note);
   return system;
