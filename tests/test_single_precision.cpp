@@ -2,6 +2,7 @@
 #include <Eigen/Dense>
 #include <tbb/task_arena.h>
 
+#include <limits>
 
 #include "hdeform/deformer.h"
 #include "hdeform/dirichlet_system.h"
@@ -94,6 +95,20 @@ TEST(SinglePrecision, GivesTheSameBitsOnAnyNumberOfThreadsAndConcurrently) {
       ASSERT_EQ(blocks.at(factor.factor_row()[static_cast<std::size_t>(i)], c), alone(i)) << "column " << c << ", row " << i;
     }
   }
+}
+
+// A right-hand side with a NaN cannot pass the residual test: the solve stops as stalled and the
+// NaN reaches the result instead of a converged-looking answer.
+TEST(SinglePrecision, ANotANumberNeverPassesTheResidualTest) {
+  const auto matrix = shifted_laplacian(make_shape(ShapeKind::Cactus, 12).mesh);
+  SparseCholesky factor;
+  factor.factor(matrix, SolverBackend::Tree, {}, nullptr, FactorPrecision::Single);
+  ASSERT_EQ(factor.precision(), FactorPrecision::Single);
+  Eigen::MatrixXd rhs = test::random_matrix(matrix.rows(), 3, 23);
+  rhs(matrix.rows() / 2, 1) = std::numeric_limits<double>::quiet_NaN();
+  const Eigen::MatrixXd solved = factor.solve(rhs);
+  EXPECT_TRUE(solved.col(1).array().isNaN().any());
+  EXPECT_EQ(factor.refinement().stalled, 1);
 }
 
 TEST(SinglePrecision, RefusesAMatrixTooIllConditionedAndSaysSo) {

@@ -13,9 +13,9 @@
 /// result stays bit-identical for any number of threads.
 #include <Eigen/Core>
 #include <Eigen/SparseCore>
+#include <cstdint>
 #include <memory>
 #include <optional>
-#include <cstdint>
 #include <span>
 #include <string>
 #include <string_view>
@@ -94,9 +94,9 @@ class SparseCholesky {
   ///    rank in a fill-reducing elimination order, lowest first; empty: AMD on this matrix.
   ///  - reuse (Tree only): an earlier factorization's analysis(); taken, and the analysis
   ///    skipped, when this matrix has exactly the pattern it was made for.
-  ///  - precision: Single computes L in double, measures on a known solution how much one
-  ///    correction step gains, and keeps L in single precision when a step gains at least 100
-  ///    times; otherwise it keeps double and precision_note() says why.
+  ///  - precision: Single computes each part of L in double and stores it in single precision,
+  ///    measures on a known solution how much one correction step gains, and keeps it when a
+  ///    step gains at least 100 times; otherwise it keeps L in double and precision_note() says why.
   void factor(const Eigen::SparseMatrix<double>& matrix, SolverBackend backend, std::span<const int> ordering = {},
               const std::shared_ptr<const Analysis>& reuse = nullptr, FactorPrecision precision = FactorPrecision::Double);
   /// This factorization's analysis, for reuse; null unless the backend is Tree.

@@ -18,7 +18,8 @@ namespace {
 // Rows per task of the element-wise passes (copies, residuals); each chunk also keeps its own
 // column maxima, so the passes allocate nothing and the maxima do not depend on the schedule.
 constexpr std::size_t kRowsPerChunk = 4096;
-constexpr std::size_t kColumnsPerPass = 8;
+// Columns whose sums a residual pass keeps in registers: as many as one sweep kernel takes.
+constexpr auto kColumnsPerPass = static_cast<std::size_t>(kMaxKernelColumns);
 
 std::size_t chunk_count(std::size_t rows) { return (rows + kRowsPerChunk - 1) / kRowsPerChunk; }
 
@@ -39,6 +40,12 @@ void multiply_row(const PermutedMatrix& matrix, std::size_t k, const double* x, 
     const double* xi = x + static_cast<std::ptrdiff_t>(matrix.row[static_cast<std::size_t>(p)]) * stride;
     for (int c = 0; c < columns; ++c) product[c] += a * xi[c];
   }
+}
+
+// largest = max(largest, value), where a NaN, once in, stays: a solve that produced one must not
+// pass the residual test on the strength of a later, finite row.
+void keep_largest(double& largest, double value) {
+  if (!std::isnan(largest) && !(value <= largest)) largest = value;
 }
 
 // A fixed pseudo-random value in [−1, 1] for index k (the probe's known solution).
@@ -145,9 +152,8 @@ std::pair<int, bool> SingleFactor::refine(const FactorPattern& pattern, double* 
   });
   single_solve(pattern, block, columns, stride);
 
-  // The largest componentwise backward error ω = |R|ᵢ / (|A| |X| + |B|)ᵢ over rows and columns
-  // (Oettli–Prager: X solves a system within a relative ω of every entry of A and B); leaves R in
-  // `residual`.
+  // The largest componentwise backward error ω over rows and columns (see the header); leaves R
+  // in `residual`.
   auto backward_error = [&] {
     for_each_chunk(rows, [&](std::size_t chunk, std::size_t first, std::size_t last) {
       double* chunk_largest = largest + chunk * width;
@@ -174,15 +180,13 @@ std::pair<int, bool> SingleFactor::refine(const FactorPattern& pattern, double* 
           for (std::size_t c = 0; c < count; ++c) {
             // A row whose |A||X| + |B| is 0 has a zero residual too, unless something is not finite.
             const double omega = scale[c] > 0.0 ? std::abs(r[c]) / scale[c] : std::abs(r[c]);
-            if (!(omega <= chunk_largest[group + c])) chunk_largest[group + c] = omega;  // a NaN stays
+            keep_largest(chunk_largest[group + c], omega);
           }
         }
       }
     });
     double worst = 0.0;
-    for (std::size_t i = 0; i < chunks * width; ++i) {
-      if (!(largest[i] <= worst)) worst = largest[i];
-    }
+    for (std::size_t i = 0; i < chunks * width; ++i) keep_largest(worst, largest[i]);
     return worst;
   };
 

@@ -200,6 +200,8 @@ std::vector<int> rows_of_ranks(std::span<const int> rank) {
   return factor_row;
 }
 
+SolveError not_definite() { return SolveError("the Laplacian system is not positive definite (the supernodal factorization failed)"); }
+
 // Keeps L in single precision when the probe says it serves this matrix, else in double and says
 // why. With `refactor` (the tree backend, whose double values are already released) the double
 // factor is computed again from A when the probe refuses; otherwise (another backend's L,
@@ -213,7 +215,7 @@ void keep_single_precision(detail::UninitializedVector<float> rows, detail::Unin
     if (refactor) {
       const trace::Scope traced("numeric factorization, in double", "set-up");
       if (!detail::factor_numeric(single->matrix(), pattern, factor.row_value, factor.column_value)) {
-        throw SolveError("the Laplacian system is not positive definite (the supernodal factorization failed)");
+        throw not_definite();
       }
     }
     return;
@@ -254,7 +256,6 @@ void factor_with_tree(const Eigen::SparseMatrix<double>& matrix, std::span<const
   }
   factor.analysis = analysis;
   const detail::FactorPattern& pattern = analysis->pattern;
-  const auto not_definite = [] { return SolveError("the Laplacian system is not positive definite (the supernodal factorization failed)"); };
   if (precision == FactorPrecision::Double) {
     const trace::Scope traced("numeric factorization", "set-up");
     if (!detail::factor_numeric(permuted, pattern, factor.row_value, factor.column_value)) throw not_definite();
