@@ -2,7 +2,9 @@
 #include <Eigen/SparseCholesky>
 #include <tbb/task_arena.h>
 
+#include <algorithm>
 #include <span>
+#include <vector>
 #include <stdexcept>
 
 #include "hdeform/constraints.h"
@@ -107,6 +109,86 @@ TEST(TreeFactorization, IsBitIdenticalOnAnyNumberOfThreads) {
   EXPECT_EQ(three_subtrees, 3u);
   EXPECT_EQ(one, two);
   EXPECT_EQ(one, three);
+}
+
+// The top's chains, checked against the tree itself: they partition the top, each climbs from
+// node to parent, a chain starts where the top branches or ends, its parent chain is the one that
+// holds its last node's parent, and its work is that of every top node at or below its last.
+void expect_top_chains_follow_the_tree(std::span<const int> parent, std::span<const double> work, const detail::EliminationSchedule& schedule) {
+  const detail::TopChains& chains = schedule.top_chains;
+  std::vector<int> in_top(parent.size(), 0), chain_of(parent.size(), -1), top_children(parent.size(), 0);
+  for (const int node : schedule.top) in_top[static_cast<std::size_t>(node)] = 1;
+  for (const int node : schedule.top) {
+    if (parent[static_cast<std::size_t>(node)] >= 0) ++top_children[static_cast<std::size_t>(parent[static_cast<std::size_t>(node)])];
+  }
+  std::size_t covered = 0;
+  for (int c = 0; c < chains.count(); ++c) {
+    const auto nodes = chains.nodes_of(c);
+    ASSERT_FALSE(nodes.empty());
+    EXPECT_NE(top_children[static_cast<std::size_t>(nodes.front())], 1) << "chain " << c << " starts inside a run";
+    for (std::size_t i = 0; i < nodes.size(); ++i) {
+      const auto node = static_cast<std::size_t>(nodes[i]);
+      EXPECT_EQ(in_top[node], 1);
+      EXPECT_EQ(chain_of[node], -1) << "node " << node << " in two chains";
+      chain_of[node] = c;
+      if (i + 1 < nodes.size()) {
+        EXPECT_EQ(parent[node], nodes[i + 1]);
+        EXPECT_EQ(top_children[static_cast<std::size_t>(nodes[i + 1])], 1);
+      }
+    }
+    covered += nodes.size();
+  }
+  EXPECT_EQ(covered, schedule.top.size());
+  std::size_t roots = 0;
+  for (int c = 0; c < chains.count(); ++c) {
+    const int last = chains.nodes_of(c).back();
+    const int up = parent[static_cast<std::size_t>(last)];
+    if (up < 0) {
+      ++roots;
+      EXPECT_NE(std::find(chains.roots.begin(), chains.roots.end(), c), chains.roots.end());
+    } else {
+      const auto siblings = chains.children_of(chain_of[static_cast<std::size_t>(up)]);
+      EXPECT_NE(std::find(siblings.begin(), siblings.end(), c), siblings.end()) << "chain " << c << " is not its parent's child";
+    }
+    double below = 0.0;  // every top node at or below the chain's last node
+    for (const int node : schedule.top) {
+      int at = node;
+      while (at >= 0 && at < last) at = parent[static_cast<std::size_t>(at)];
+      if (at == last) below += work[static_cast<std::size_t>(node)];
+    }
+    EXPECT_NEAR(chains.work[static_cast<std::size_t>(c)], below, 1e-9 * below);
+  }
+  EXPECT_EQ(roots, chains.roots.size());
+  std::size_t children = 0;
+  for (int c = 0; c < chains.count(); ++c) children += chains.children_of(c).size();
+  EXPECT_EQ(children + roots, static_cast<std::size_t>(chains.count()));
+}
+
+TEST(EliminationSchedule, TheTopsChainsFollowTheTree) {
+  const auto matrix = split_matrix();
+  const auto permuted = detail::permuted_matrix(matrix, elimination_ranks(matrix));
+  const detail::FactorPattern pattern = detail::analyse_pattern(permuted, 2);
+  std::vector<double> work(static_cast<std::size_t>(pattern.size()));
+  for (int j = 0; j < pattern.size(); ++j) work[static_cast<std::size_t>(j)] = static_cast<double>(pattern.column_length(j));
+  for (const int parts : {1, 2, 3, 8}) {
+    SCOPED_TRACE(parts);
+    const auto schedule = detail::split_elimination_tree(pattern.parent, work, parts);
+    expect_top_chains_follow_the_tree(pattern.parent, work, schedule);
+    if (parts > 1) {
+      // A top that branches, so that the solves' tests run sibling chains side by side.
+      const auto& chains = schedule.top_chains;
+      EXPECT_GT(chains.count(), 2);
+      EXPECT_TRUE(std::any_of(chains.child_start.begin(), chains.child_start.end() - 1,
+                              [&, c = 0](int) mutable { return chains.children_of(c++).size() >= 2; }));
+    }
+  }
+  // A forest: two separate paths and a lone node, all in the top.
+  const std::vector<int> forest{1, 2, -1, 4, -1, -1};
+  const std::vector<double> ones(forest.size(), 1.0);
+  const auto schedule = detail::split_elimination_tree(forest, ones, 1);
+  expect_top_chains_follow_the_tree(forest, ones, schedule);
+  EXPECT_EQ(schedule.top_chains.count(), 3);
+  EXPECT_EQ(schedule.top_chains.roots.size(), 3u);
 }
 
 // Many columns (harmonic coordinates: one per marker) are solved as whole solves side by side,

@@ -122,6 +122,55 @@ std::vector<int> column_counts(const PermutedMatrix& matrix, std::span<const int
   return delta;
 }
 
+// The chains of the top (ascending node lists, closed under ancestors): a chain starts at a node
+// with no top child or several, and climbs while the parent has the one top child it came from.
+// Chains are numbered by their first node, so every chain comes after the chains below it.
+TopChains top_chains(std::span<const int> parent, std::span<const double> work, std::span<const int> top) {
+  std::vector<int> top_children(parent.size(), 0);
+  for (const int node : top) {
+    if (const int p = parent[static_cast<std::size_t>(node)]; p >= 0) ++top_children[static_cast<std::size_t>(p)];
+  }
+  TopChains chains;
+  chains.nodes.reserve(top.size());
+  chains.node_start.push_back(0);
+  std::vector<int> chain_of(parent.size(), -1);
+  for (const int first : top) {
+    if (top_children[static_cast<std::size_t>(first)] == 1) continue;
+    const int chain = chains.count();
+    double chain_work = 0.0;
+    for (int node = first;;) {
+      chains.nodes.push_back(node);
+      chain_of[static_cast<std::size_t>(node)] = chain;
+      chain_work += work[static_cast<std::size_t>(node)];
+      const int p = parent[static_cast<std::size_t>(node)];
+      if (p < 0 || top_children[static_cast<std::size_t>(p)] != 1) break;
+      node = p;
+    }
+    chains.node_start.push_back(static_cast<int>(chains.nodes.size()));
+    chains.work.push_back(chain_work);
+  }
+  const auto count = static_cast<std::size_t>(chains.count());
+  std::vector<int> chain_parent(count, -1);
+  chains.child_start.assign(count + 1, 0);
+  for (std::size_t c = 0; c < count; ++c) {
+    const int last = chains.nodes[static_cast<std::size_t>(chains.node_start[c + 1]) - 1];
+    if (const int p = parent[static_cast<std::size_t>(last)]; p >= 0) {
+      chain_parent[c] = chain_of[static_cast<std::size_t>(p)];
+      ++chains.child_start[static_cast<std::size_t>(chain_parent[c]) + 1];
+      chains.work[static_cast<std::size_t>(chain_parent[c])] += chains.work[c];  // children come first
+    } else {
+      chains.roots.push_back(static_cast<int>(c));
+    }
+  }
+  for (std::size_t c = 0; c < count; ++c) chains.child_start[c + 1] += chains.child_start[c];
+  chains.children.resize(static_cast<std::size_t>(chains.child_start[count]));
+  std::vector<int> fill(chains.child_start.begin(), chains.child_start.end() - 1);
+  for (std::size_t c = 0; c < count; ++c) {
+    if (const int p = chain_parent[c]; p >= 0) chains.children[static_cast<std::size_t>(fill[static_cast<std::size_t>(p)]++)] = static_cast<int>(c);
+  }
+  return chains;
+}
+
 }  // namespace
 
 EliminationSchedule split_elimination_tree(std::span<const int> parent, std::span<const double> work, int parts) {
@@ -130,6 +179,7 @@ EliminationSchedule split_elimination_tree(std::span<const int> parent, std::spa
   if (parts <= 1 || n < 1024) {
     schedule.top.resize(static_cast<std::size_t>(n));
     std::iota(schedule.top.begin(), schedule.top.end(), 0);
+    schedule.top_chains = top_chains(parent, work, schedule.top);
     return schedule;
   }
   std::vector<double> subtree_work(work.begin(), work.end());
@@ -188,6 +238,7 @@ EliminationSchedule split_elimination_tree(std::span<const int> parent, std::spa
     if (in_top[static_cast<std::size_t>(j)] == 0) schedule.subtrees[static_cast<std::size_t>(worker_of[static_cast<std::size_t>(j)])].push_back(j);
   }
   std::sort(schedule.top.begin(), schedule.top.end());
+  schedule.top_chains = top_chains(parent, work, schedule.top);
   return schedule;
 }
 

@@ -26,11 +26,34 @@
 
 namespace hdeform::detail {
 
+// The top is itself a forest, cut into chains: runs of nodes each the only top child of the next.
+// Sibling chains share no node, so a sweep may run them concurrently once their children are done
+// (forward) or their parent is (backward), each node's arithmetic unchanged.
+struct TopChains {
+  std::vector<int> nodes;        // chain c: nodes[node_start[c] .. node_start[c+1]), ascending
+  std::vector<int> node_start;
+  std::vector<int> children;     // chain c's child chains: children[child_start[c] .. child_start[c+1])
+  std::vector<int> child_start;
+  std::vector<int> roots;        // chains whose last node is a root of the tree
+  std::vector<double> work;      // of chain c and every chain below it
+
+  int count() const { return static_cast<int>(node_start.size()) - 1; }
+  std::span<const int> nodes_of(int c) const {
+    const auto at = static_cast<std::size_t>(c);
+    return {nodes.data() + node_start[at], static_cast<std::size_t>(node_start[at + 1] - node_start[at])};
+  }
+  std::span<const int> children_of(int c) const {
+    const auto at = static_cast<std::size_t>(c);
+    return {children.data() + child_start[at], static_cast<std::size_t>(child_start[at + 1] - child_start[at])};
+  }
+};
+
 // Nodes of a tree split for `parts` workers: each subtree list (ascending) is closed under
 // descendants; `top` (ascending) holds every other node, each an ancestor of subtree roots.
 struct EliminationSchedule {
   std::vector<std::vector<int>> subtrees;
   std::vector<int> top;
+  TopChains top_chains;
 };
 
 // parent[j]: j's parent in the tree (parent[j] > j), −1 for a root; work[j]: the cost of node j.

@@ -92,6 +92,30 @@ template <class T>
 inline constexpr Sweeps<T> kSweeps[kMaxKernelColumns] = {sweeps_for<1, T>(), sweeps_for<2, T>(), sweeps_for<3, T>(), sweeps_for<4, T>(),
                                                          sweeps_for<5, T>(), sweeps_for<6, T>(), sweeps_for<7, T>(), sweeps_for<8, T>()};
 
+enum class Direction { Forward, Backward };
+
+// Sweeps the top of the tree chain by chain: forward, a chain after the chains below it; backward,
+// before them. Sibling chains run concurrently (when `concurrent`) while their share of the top's
+// work is large enough to pay for a task.
+template <class Sweep>
+void sweep_top(const TopChains& chains, bool concurrent, Direction direction, const Sweep& sweep) {
+  double total = 0.0;
+  for (const int root : chains.roots) total += chains.work[static_cast<std::size_t>(root)];
+  const double task_work = total / 64.0;
+  auto each = [&](std::span<const int> list, auto&& visit) {
+    const bool split = concurrent && list.size() > 1 &&
+                       std::count_if(list.begin(), list.end(), [&](int c) { return chains.work[static_cast<std::size_t>(c)] >= task_work; }) > 1;
+    if (split) tbb::parallel_for(std::size_t{0}, list.size(), [&](std::size_t i) { visit(list[i]); }, tbb::simple_partitioner());
+    else for (const int c : list) visit(c);
+  };
+  auto visit = [&](auto&& self, int chain) -> void {
+    if (direction == Direction::Backward) sweep(chains.nodes_of(chain));
+    each(chains.children_of(chain), [&](int child) { self(self, child); });
+    if (direction == Direction::Forward) sweep(chains.nodes_of(chain));
+  };
+  each(chains.roots, [&](int root) { visit(visit, root); });
+}
+
 // Solves L Lᵀ X = B in place for a row-major block in factor order (`columns` values per row,
 // rows `stride` apart), with L's values by rows (forward) and by stored columns (backward).
 template <class T>
@@ -116,9 +140,12 @@ void solve_with_factor(const FactorPattern& pattern, const T* row_value, const T
     auto backward = [&](std::span<const int> part) { sweeps.backward(pattern, column_value, part, y, stride); };
     each_subtree("forward sweep, subtree", forward);
     {
-      const trace::Scope traced("forward and backward sweeps, top", "solve");
-      forward(pattern.schedule.top);
-      backward(pattern.schedule.top);
+      const trace::Scope traced("forward sweep, top", "solve");
+      sweep_top(pattern.schedule.top_chains, side_by_side, Direction::Forward, forward);
+    }
+    {
+      const trace::Scope traced("backward sweep, top", "solve");
+      sweep_top(pattern.schedule.top_chains, side_by_side, Direction::Backward, backward);
     }
     each_subtree("backward sweep, subtree", backward);
   };
