@@ -1,4 +1,9 @@
+#include <algorithm>
+#include <cstdint>
 #include <limits>
+#include <map>
+#include <random>
+#include <utility>
 
 #include "hdeform/deformation_gradient.h"
 #include "hdeform/deformer.h"
@@ -11,6 +16,7 @@
 #include "hdeform/mesh_io.h"
 #include "hdeform/shapes.h"
 #include "test_support.h"
+#include "mesh/edge_counts.h"
 
 namespace hdeform {
 namespace {
@@ -34,6 +40,63 @@ Mesh troubled_mesh(const Mesh& base) {
       Eigen::RowVector3i(base.triangles(1, 0), base.triangles(1, 0) == base.triangles(1, 1) ? 0 : base.triangles(1, 1), base.triangles(1, 0));
   // The last row repeats a vertex: a collapsed triangle.
   return mesh;
+}
+
+// The edge counts of inspections and topologies against a map from each edge to its triangles
+// and a components search written here, on random triangle lists: shared, boundary and
+// non-manifold edges, corners repeated, vertices in no triangle.
+TEST(EdgeCounts, AgreeWithCountingEachEdgeInAMap) {
+  std::mt19937 random(7);
+  for (int trial = 0; trial < 40; ++trial) {
+    const int n = 2 + static_cast<int>(random() % 60);
+    const int m = 1 + static_cast<int>(random() % 120);
+    Eigen::MatrixXi triangles(m, 3);
+    for (int t = 0; t < m; ++t) {
+      for (int k = 0; k < 3; ++k) triangles(t, k) = static_cast<int>(random() % static_cast<unsigned>(n));
+    }
+    for (const bool self_edges : {false, true}) {
+      SCOPED_TRACE(testing::Message() << "trial " << trial << (self_edges ? ", self edges" : ""));
+      std::map<std::pair<int, int>, int> holders;
+      std::vector<std::vector<int>> neighbours(static_cast<std::size_t>(n));
+      for (int t = 0; t < m; ++t) {
+        for (int k = 0; k < 3; ++k) {
+          const int a = triangles(t, k), b = triangles(t, (k + 1) % 3);
+          if (a == b && !self_edges) continue;
+          ++holders[{std::min(a, b), std::max(a, b)}];
+          neighbours[static_cast<std::size_t>(a)].push_back(b);
+          neighbours[static_cast<std::size_t>(b)].push_back(a);
+        }
+      }
+      std::size_t boundary = 0, nonmanifold = 0;
+      for (const auto& [edge, count] : holders) {
+        boundary += count == 1 ? 1 : 0;
+        nonmanifold += count > 2 ? 1 : 0;
+      }
+      detail::DisjointSets sets(static_cast<std::size_t>(n));
+      const detail::EdgeCounts counts = detail::count_edges(triangles, static_cast<std::size_t>(n), self_edges, &sets);
+      EXPECT_EQ(counts.edges, holders.size());
+      EXPECT_EQ(counts.boundary, boundary);
+      EXPECT_EQ(counts.nonmanifold, nonmanifold);
+      // Components by a search along the edges: the smallest vertex of each is its root.
+      std::vector<int> label(static_cast<std::size_t>(n), -1);
+      for (int start = 0; start < n; ++start) {
+        if (label[static_cast<std::size_t>(start)] >= 0) continue;
+        std::vector<int> stack{start};
+        label[static_cast<std::size_t>(start)] = start;
+        while (!stack.empty()) {
+          const int v = stack.back();
+          stack.pop_back();
+          for (const int w : neighbours[static_cast<std::size_t>(v)]) {
+            if (label[static_cast<std::size_t>(w)] < 0) {
+              label[static_cast<std::size_t>(w)] = start;
+              stack.push_back(w);
+            }
+          }
+        }
+      }
+      for (int v = 0; v < n; ++v) EXPECT_EQ(sets.find(v), label[static_cast<std::size_t>(v)]) << "vertex " << v;
+    }
+  }
 }
 
 TEST(MeshCheck, CountsAndWarnsAboutTroubledGeometry) {

@@ -9,7 +9,12 @@ namespace hdeform::detail {
 // depend on the order of unions.
 class DisjointSets {
  public:
-  explicit DisjointSets(std::size_t n) : parent_(n) { std::iota(parent_.begin(), parent_.end(), 0); }
+  explicit DisjointSets(std::size_t n = 0) { reset(n); }
+  // n singletons again, keeping the storage.
+  void reset(std::size_t n) {
+    parent_.resize(n);
+    std::iota(parent_.begin(), parent_.end(), 0);
+  }
   int find(int v) {
     while (parent_[static_cast<std::size_t>(v)] != v) {
       auto& p = parent_[static_cast<std::size_t>(v)];

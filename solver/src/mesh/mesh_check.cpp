@@ -2,11 +2,16 @@
 
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cstdint>
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 #include <tbb/parallel_invoke.h>
+#include <tbb/parallel_sort.h>
 
 #include "disjoint_sets.h"
+#include "edge_counts.h"
 
 namespace hdeform {
 
@@ -38,26 +43,10 @@ namespace {
 // and unreferenced vertices.
 void count_edges_and_components(const Mesh& mesh, const std::vector<bool>& referenced, MeshInspection& inspection) {
   const auto n = referenced.size();
-  std::vector<std::uint64_t> edges;
-  edges.reserve(static_cast<std::size_t>(mesh.triangle_count()) * 3);
   detail::DisjointSets components(n);
-  for (Eigen::Index t = 0; t < mesh.triangle_count(); ++t) {
-    for (int k = 0; k < 3; ++k) {
-      const auto a = static_cast<std::uint32_t>(mesh.triangles(t, k));
-      const auto b = static_cast<std::uint32_t>(mesh.triangles(t, (k + 1) % 3));
-      if (a == b) continue;
-      edges.push_back((static_cast<std::uint64_t>(std::min(a, b)) << 32) | std::max(a, b));
-      components.unite(static_cast<int>(a), static_cast<int>(b));
-    }
-  }
-  std::sort(edges.begin(), edges.end());
-  for (std::size_t k = 0; k < edges.size();) {
-    std::size_t run = k;
-    while (run < edges.size() && edges[run] == edges[k]) ++run;
-    if (run - k == 1) ++inspection.boundary_edges;
-    if (run - k > 2) ++inspection.nonmanifold_edges;
-    k = run;
-  }
+  const detail::EdgeCounts edges = detail::count_edges(mesh.triangles, n, false, &components);
+  inspection.boundary_edges = edges.boundary;
+  inspection.nonmanifold_edges = edges.nonmanifold;
   for (std::size_t v = 0; v < n; ++v) {
     if (!referenced[v]) ++inspection.unreferenced_vertices;
     else if (components.find(static_cast<int>(v)) == static_cast<int>(v)) ++inspection.components;
@@ -88,25 +77,30 @@ std::size_t count_nonmanifold_vertices(const Mesh& mesh) {
     links[next[static_cast<std::size_t>(j)]++] = {k, i};
     links[next[static_cast<std::size_t>(k)]++] = {i, j};
   }
-  std::size_t nonmanifold = 0;
-  std::vector<int> neighbours;
-  for (std::size_t v = 0; v < n; ++v) {
-    if (start[v] == start[v + 1]) continue;
-    neighbours.clear();
-    for (std::size_t c = start[v]; c < start[v + 1]; ++c) {
-      neighbours.push_back(links[c].a);
-      neighbours.push_back(links[c].b);
+  std::atomic<std::size_t> nonmanifold{0};
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096), [&](const tbb::blocked_range<std::size_t>& range) {
+    std::vector<int> neighbours;
+    detail::DisjointSets link;
+    std::size_t found = 0;
+    for (std::size_t v = range.begin(); v != range.end(); ++v) {
+      if (start[v] == start[v + 1]) continue;
+      neighbours.clear();
+      for (std::size_t c = start[v]; c < start[v + 1]; ++c) {
+        neighbours.push_back(links[c].a);
+        neighbours.push_back(links[c].b);
+      }
+      std::sort(neighbours.begin(), neighbours.end());
+      neighbours.erase(std::unique(neighbours.begin(), neighbours.end()), neighbours.end());
+      link.reset(neighbours.size());
+      const auto local = [&](int vertex) { return static_cast<int>(std::lower_bound(neighbours.begin(), neighbours.end(), vertex) - neighbours.begin()); };
+      for (std::size_t c = start[v]; c < start[v + 1]; ++c) link.unite(local(links[c].a), local(links[c].b));
+      std::size_t fans = 0;
+      for (std::size_t k = 0; k < neighbours.size(); ++k) fans += link.find(static_cast<int>(k)) == static_cast<int>(k) ? 1 : 0;
+      if (fans > 1) ++found;
     }
-    std::sort(neighbours.begin(), neighbours.end());
-    neighbours.erase(std::unique(neighbours.begin(), neighbours.end()), neighbours.end());
-    detail::DisjointSets link(neighbours.size());
-    const auto local = [&](int vertex) { return static_cast<int>(std::lower_bound(neighbours.begin(), neighbours.end(), vertex) - neighbours.begin()); };
-    for (std::size_t c = start[v]; c < start[v + 1]; ++c) link.unite(local(links[c].a), local(links[c].b));
-    std::size_t fans = 0;
-    for (std::size_t k = 0; k < neighbours.size(); ++k) fans += link.find(static_cast<int>(k)) == static_cast<int>(k) ? 1 : 0;
-    if (fans > 1) ++nonmanifold;
-  }
-  return nonmanifold;
+    nonmanifold += found;
+  });
+  return nonmanifold.load();
 }
 
 // Referenced vertices at exactly the same position as another (each one after the first counts).
@@ -116,7 +110,7 @@ std::size_t count_duplicated_vertices(const Mesh& mesh, const std::vector<bool>&
     if (referenced[v]) order.push_back(static_cast<int>(v));
   }
   const auto position = [&](int v) { return std::array<double, 3>{mesh.positions(v, 0), mesh.positions(v, 1), mesh.positions(v, 2)}; };
-  std::sort(order.begin(), order.end(), [&](int x, int y) { return position(x) < position(y); });
+  tbb::parallel_sort(order.begin(), order.end(), [&](int x, int y) { return position(x) < position(y); });
   std::size_t duplicated = 0;
   for (std::size_t k = 1; k < order.size(); ++k) {
     if (position(order[k]) == position(order[k - 1])) ++duplicated;
