@@ -85,7 +85,7 @@ struct DeformerTimings {
   double laplacian_ms = 0.0;  ///< weights, inspection, partition and Laplacian (the partition alone when reused)
   double factor_ms = 0.0;  ///< analyse + numeric factorization of L_ff
   double field_ms = 0.0;   ///< harmonic field solve
-  double base_ms = 0.0;    ///< multiresolution: the base mesh and the detail encoding (with the operators)
+  double base_ms = 0.0;    ///< multiresolution: the base mesh, the detail encoding, and the operators of both meshes
 };
 
 /// What depends on the rest mesh alone: cotangent weights, the inspection, the Laplacian and a

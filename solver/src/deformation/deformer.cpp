@@ -111,20 +111,20 @@ std::shared_ptr<const MeshOperators> MeshOperators::of(const Mesh& mesh, Resolut
     try {
       report("building a base mesh of about " + std::to_string(base_vertices) + " vertices (multiresolution)");
       auto multiresolution = std::make_shared<Multiresolution>();
-      multiresolution->base = simplify_to_base(mesh, base_vertices);
-      report("encoding the detail of " + std::to_string(mesh.vertex_count()) + " vertices on the base of " +
-             std::to_string(multiresolution->base.mesh.vertex_count()));
-      // The encoding and the fine mesh's own weights and inspection (its partition needs them)
-      // are independent.
-      tbb::parallel_invoke([&] { multiresolution->encoding = DetailEncoding(mesh, multiresolution->base); },
+      // The fine mesh's own weights and inspection (its partition needs them) do not need the
+      // base: they fill the collapses' serial stretches.
+      tbb::parallel_invoke([&] { multiresolution->base = simplify_to_base(mesh, base_vertices); },
                            [&] {
                              const trace::Scope traced("cotangent weights and mesh inspection", "set-up");
                              operators->weights = cotangent_weights(mesh);
                              operators->inspection = inspect_mesh(mesh, operators->weights);
                            });
+      report("encoding the detail of " + std::to_string(mesh.vertex_count()) + " vertices on the base of " +
+             std::to_string(multiresolution->base.mesh.vertex_count()) + ", and the base's cotangent Laplacian");
+      // Likewise the encoding and the base's operators (its elimination order runs on one thread).
+      tbb::parallel_invoke([&] { multiresolution->encoding = DetailEncoding(mesh, multiresolution->base); },
+                           [&] { multiresolution->base_operators = of(multiresolution->base.mesh, Resolution::Exact); });
       multiresolution->ms = milliseconds_since(start);
-      report("building the base mesh's cotangent Laplacian");
-      multiresolution->base_operators = of(multiresolution->base.mesh, Resolution::Exact);
       operators->multiresolution = std::move(multiresolution);
       operators->ms = milliseconds_since(start);
       return operators;

@@ -2,6 +2,7 @@
 
 #include <Eigen/Geometry>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
 
 #include <algorithm>
 #include <cmath>
@@ -12,6 +13,7 @@
 #include <utility>
 
 #include "mesh/disjoint_sets.h"
+#include "mesh/edge_counts.h"
 #include "edge_collapse.h"
 #include "hdeform/errors.h"
 #include "hdeform/trace.h"
@@ -20,11 +22,6 @@ namespace hdeform {
 namespace {
 
 constexpr std::size_t kVertexGrain = 2048;
-
-std::uint64_t edge_key(int a, int b) {
-  if (a > b) std::swap(a, b);
-  return (static_cast<std::uint64_t>(static_cast<std::uint32_t>(a)) << 32) | static_cast<std::uint32_t>(b);
-}
 
 // A triangle's frame, from its first edge e = b − a and normal n = e × (c − a): columns e/|e|,
 // (n × e)/(|n| |e|), n/|n|. The reciprocal lengths are a triangle's (DetailEncoding::Workspace:
@@ -151,28 +148,15 @@ std::string MeshTopology::describe() const {
 MeshTopology mesh_topology(const Mesh& mesh) {
   MeshTopology topology;
   topology.triangles = mesh.triangle_count();
-  std::vector<std::uint64_t> edges;
-  edges.reserve(static_cast<std::size_t>(3 * mesh.triangle_count()));
-  std::vector<char> referenced(static_cast<std::size_t>(mesh.vertex_count()), 0);
-  detail::DisjointSets sets(static_cast<std::size_t>(mesh.vertex_count()));
-  for (Eigen::Index t = 0; t < mesh.triangle_count(); ++t) {
-    for (int k = 0; k < 3; ++k) {
-      const int a = mesh.triangles(t, k), b = mesh.triangles(t, (k + 1) % 3);
-      edges.push_back(edge_key(a, b));
-      referenced[static_cast<std::size_t>(a)] = 1;
-      sets.unite(a, b);
-    }
-  }
-  std::sort(edges.begin(), edges.end());
-  for (std::size_t i = 0; i < edges.size();) {
-    std::size_t j = i;
-    while (j < edges.size() && edges[j] == edges[i]) ++j;
-    ++topology.edges;
-    if (j - i == 1) ++topology.boundary_edges;
-    if (j - i > 2) ++topology.nonmanifold_edges;
-    i = j;
-  }
-  for (std::size_t v = 0; v < referenced.size(); ++v) {
+  const auto n = static_cast<std::size_t>(mesh.vertex_count());
+  detail::DisjointSets sets(n);
+  const detail::EdgeCounts edges = detail::count_edges(mesh.triangles, n, true, &sets);
+  topology.edges = static_cast<Eigen::Index>(edges.edges);
+  topology.boundary_edges = static_cast<Eigen::Index>(edges.boundary);
+  topology.nonmanifold_edges = static_cast<Eigen::Index>(edges.nonmanifold);
+  std::vector<char> referenced(n, 0);
+  for (const int v : mesh.triangles.reshaped()) referenced[static_cast<std::size_t>(v)] = 1;
+  for (std::size_t v = 0; v < n; ++v) {
     if (!referenced[v]) continue;
     ++topology.vertices;
     if (sets.find(static_cast<int>(v)) == static_cast<int>(v)) ++topology.components;
@@ -182,18 +166,21 @@ MeshTopology mesh_topology(const Mesh& mesh) {
 
 BaseMesh simplify_to_base(const Mesh& fine, Eigen::Index target_vertices) {
   validate_mesh(fine, "fine mesh");
-  const MeshTopology fine_topology = mesh_topology(fine);
-  const auto identity = [&] {
+  std::vector<char> referenced(static_cast<std::size_t>(fine.vertex_count()), 0);
+  for (const int v : fine.triangles.reshaped()) referenced[static_cast<std::size_t>(v)] = 1;
+  if (target_vertices >= std::count(referenced.begin(), referenced.end(), 1)) {
     BaseMesh base;
     base.mesh = fine;
     base.fine_vertex.resize(static_cast<std::size_t>(fine.vertex_count()));
     std::iota(base.fine_vertex.begin(), base.fine_vertex.end(), 0);
     return base;
-  };
-  if (target_vertices >= fine_topology.vertices) return identity();
+  }
 
   const trace::Scope traced("base mesh (edge collapses)", "set-up");
-  const detail::CollapsedMesh collapsed = detail::collapse_edges(fine, target_vertices);
+  // The fine mesh's topology, for the check at the end, beside the collapses.
+  MeshTopology fine_topology;
+  detail::CollapsedMesh collapsed;
+  tbb::parallel_invoke([&] { fine_topology = mesh_topology(fine); }, [&] { collapsed = detail::collapse_edges(fine, target_vertices); });
   BaseMesh base;
   base.simplification_error = collapsed.largest_error / std::max(bounding_box_diagonal(fine.positions), 1e-300);
   std::vector<int> base_of_fine(static_cast<std::size_t>(fine.vertex_count()), -1);
