@@ -81,22 +81,29 @@ class Collapser {
         planes[t] = Quadric::plane(normal, -normal.dot(a), area);
       }
     });
-    // Each list at its final size at once: growing 1.6 million lists one triangle at a time
-    // was a tenth of the simplification.
+    // Each vertex's triangles, ascending (a triangle that repeats a corner twice over), gathered
+    // by a counting sort; then each vertex's list and quadric side by side, the planes summed in
+    // the triangles' order.
+    std::vector<std::size_t> start(n + 1, 0);
+    for (const auto& corners : triangles_) {
+      for (const int v : corners) ++start[static_cast<std::size_t>(v) + 1];
+    }
+    for (std::size_t v = 0; v < n; ++v) start[v + 1] += start[v];
+    std::vector<int> incident(start[n]);
     {
-      std::vector<int> valence(n, 0);
-      for (const auto& corners : triangles_) {
-        for (const int v : corners) ++valence[static_cast<std::size_t>(v)];
-      }
-      for (std::size_t v = 0; v < n; ++v) around_[v].reserve(static_cast<std::size_t>(valence[v]));
-    }
-    for (std::size_t t = 0; t < triangles_.size(); ++t) {
-      for (const int v : triangles_[t]) {
-        around_[static_cast<std::size_t>(v)].push_back(static_cast<int>(t));
-        referenced_[static_cast<std::size_t>(v)] = 1;
-        quadric_[static_cast<std::size_t>(v)] += planes[t];
+      std::vector<std::size_t> next(start.begin(), start.end() - 1);
+      for (std::size_t t = 0; t < triangles_.size(); ++t) {
+        for (const int v : triangles_[t]) incident[next[static_cast<std::size_t>(v)]++] = static_cast<int>(t);
       }
     }
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096), [&](const tbb::blocked_range<std::size_t>& range) {
+      for (std::size_t v = range.begin(); v != range.end(); ++v) {
+        const auto first = incident.begin() + static_cast<std::ptrdiff_t>(start[v]), last = incident.begin() + static_cast<std::ptrdiff_t>(start[v + 1]);
+        around_[v].assign(first, last);
+        referenced_[v] = first != last ? 1 : 0;
+        for (auto t = first; t != last; ++t) quadric_[v] += planes[static_cast<std::size_t>(*t)];
+      }
+    });
     alive_triangles_ = triangles_.size();
     alive_vertices_ = std::count(referenced_.begin(), referenced_.end(), 1);
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 4096), [&](const tbb::blocked_range<std::size_t>& range) {
