@@ -32,6 +32,32 @@ using Message = tbb::flow::continue_msg;
 using Node = tbb::flow::continue_node<Message>;
 constexpr std::size_t kRowGrain = 1024;
 
+// A base mesh from this size on is ordered by nested dissection, whatever the exact rule
+// (kNestedDissectionFrom): every drag step and refinement iteration solves on it, where the
+// minimum-degree order leaves a long chain at the top of its elimination tree that one thread
+// sweeps; and its order is computed beside the detail encoding, so opening hardly waits for it
+// (at 3.3M triangles, a base of 150,002 vertices: drag step 29.0-29.9 -> 25.7-25.8 ms, open
+// 4.10 -> 4.15 s).
+constexpr Eigen::Index kBaseNestedDissectionFrom = 100'000;
+
+// The Laplacian, the inspection and the elimination order of a mesh solved at its own resolution.
+void exact_operators(const Mesh& mesh, EliminationOrder order, MeshOperators& operators) {
+  std::optional<trace::Scope> stage;
+  stage.emplace("cotangent weights", "set-up");
+  operators.weights = cotangent_weights(mesh);
+  stage.emplace("Laplacian", "set-up");
+  operators.laplacian = cotangent_laplacian(mesh, operators.weights);
+  stage.reset();
+  // The ordering needs only the Laplacian's pattern, the inspection only the weights: the two run
+  // side by side.
+  tbb::parallel_invoke(
+      [&] {
+        const trace::Scope traced("mesh inspection", "set-up");
+        operators.inspection = inspect_mesh(mesh, operators.weights);
+      },
+      [&] { operators.elimination_rank = elimination_ranks(operators.laplacian, order); });
+}
+
 }  // namespace
 
 // The per-update task graph. One handle:
@@ -106,7 +132,6 @@ std::shared_ptr<const MeshOperators> MeshOperators::of(const Mesh& mesh, Resolut
   };
   const auto start = Clock::now();
   auto operators = std::make_shared<MeshOperators>();
-  std::optional<trace::Scope> stage;
   if (resolution_for(mesh.vertex_count(), resolution) == Resolution::Multiresolution) {
     try {
       report("building a base mesh of about " + std::to_string(base_vertices) + " vertices (multiresolution)");
@@ -123,7 +148,16 @@ std::shared_ptr<const MeshOperators> MeshOperators::of(const Mesh& mesh, Resolut
              std::to_string(multiresolution->base.mesh.vertex_count()) + ", and the base's cotangent Laplacian");
       // Likewise the encoding and the base's operators (its elimination order runs on one thread).
       tbb::parallel_invoke([&] { multiresolution->encoding = DetailEncoding(mesh, multiresolution->base); },
-                           [&] { multiresolution->base_operators = of(multiresolution->base.mesh, Resolution::Exact); });
+                           [&] {
+                             const auto base_start = Clock::now();
+                             const Mesh& base = multiresolution->base.mesh;
+                             auto base_operators = std::make_shared<MeshOperators>();
+                             exact_operators(base, base.vertex_count() >= kBaseNestedDissectionFrom ? EliminationOrder::NestedDissection
+                                                                                                     : EliminationOrder::Automatic,
+                                             *base_operators);
+                             base_operators->ms = milliseconds_since(base_start);
+                             multiresolution->base_operators = std::move(base_operators);
+                           });
       multiresolution->ms = milliseconds_since(start);
       operators->multiresolution = std::move(multiresolution);
       operators->ms = milliseconds_since(start);
@@ -136,21 +170,7 @@ std::shared_ptr<const MeshOperators> MeshOperators::of(const Mesh& mesh, Resolut
   report(elimination_order_for(mesh.vertex_count()) == EliminationOrder::NestedDissection
              ? "building the cotangent Laplacian and a nested-dissection order of its unknowns"
              : "building the cotangent Laplacian");
-  stage.emplace("cotangent weights", "set-up");
-  operators->weights = cotangent_weights(mesh);
-  stage.emplace("Laplacian", "set-up");
-  operators->laplacian = cotangent_laplacian(mesh, operators->weights);
-  stage.reset();
-  // The ordering needs only the Laplacian's pattern, the inspection only the weights: the two run
-  // side by side.
-  tbb::parallel_invoke(
-      [&] {
-        const trace::Scope traced("mesh inspection", "set-up");
-        operators->inspection = inspect_mesh(mesh, operators->weights);
-      },
-      [&] {
-        operators->elimination_rank = elimination_ranks(operators->laplacian);
-      });
+  exact_operators(mesh, EliminationOrder::Automatic, *operators);
   operators->ms = milliseconds_since(start);
   return operators;
 }
