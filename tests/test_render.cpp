@@ -375,6 +375,100 @@ TEST_F(Render, TheNextFrameShowsTheLatestOfTwoPublications) {
   EXPECT_GT(std::abs(second - first), 20.0) << "the frame did not show the newest publication";
 }
 
+// A drag on a large mesh publishes the proxy's vertices alone: those, each with the very bits a
+// whole publication gives it, and the snapshot says which they are; a whole publication after it
+// is whole again, and without a proxy a proxy publication is whole.
+TEST(GeometryPublisher, AProxyPublicationWritesTheProxysVerticesAsAWholeOneWould) {
+  const Mesh sphere = make_shape(ShapeKind::Sphere, 120).mesh;
+  const Eigen::MatrixXi proxy = engine::proxy_triangles(sphere.triangles, sphere.positions, 2000);
+  ASSERT_GT(proxy.rows(), 0);
+  std::vector<int> proxy_vertices(proxy.data(), proxy.data() + proxy.size());
+  std::sort(proxy_vertices.begin(), proxy_vertices.end());
+  proxy_vertices.erase(std::unique(proxy_vertices.begin(), proxy_vertices.end()), proxy_vertices.end());
+  Eigen::MatrixXd moved = sphere.positions;
+  for (Eigen::Index v = 0; v < moved.rows(); ++v) moved.row(v) += Eigen::RowVector3d(0.3 * moved(v, 2) * moved(v, 2), 0.1, -0.2);
+
+  const auto n = static_cast<std::size_t>(sphere.vertex_count());
+  engine::GeometryExchange whole_exchange(n), exchange(n);
+  engine::GeometryPublisher whole(whole_exchange, sphere.triangles), publisher(exchange, sphere.triangles);
+  whole.publish(moved, 7);
+  const std::vector<float> reference = whole_exchange.acquire()->position_normal;
+
+  publisher.set_proxy(proxy);
+  publisher.publish(sphere.positions, 1);
+  EXPECT_FALSE(publisher.newest_is_proxy_only());
+  publisher.publish(moved, 2, engine::GeometryPublisher::Detail::Proxy);
+  EXPECT_TRUE(publisher.newest_is_proxy_only());
+  const engine::GeometrySnapshot* snapshot = exchange.acquire();
+  ASSERT_NE(snapshot, nullptr);
+  EXPECT_EQ(snapshot->tag, 2u);
+  ASSERT_NE(snapshot->only_vertices, nullptr);
+  EXPECT_EQ(*snapshot->only_vertices, proxy_vertices);
+  std::size_t differing = 0;
+  for (const int v : proxy_vertices) {
+    for (int c = 0; c < 6; ++c) differing += snapshot->position_normal[6 * static_cast<std::size_t>(v) + c] != reference[6 * static_cast<std::size_t>(v) + c];
+  }
+  EXPECT_EQ(differing, 0u);
+
+  publisher.publish(moved, 3);
+  EXPECT_FALSE(publisher.newest_is_proxy_only());
+  snapshot = exchange.acquire();
+  EXPECT_EQ(snapshot->only_vertices, nullptr);
+  EXPECT_EQ(snapshot->position_normal, reference);
+
+  publisher.set_proxy(Eigen::MatrixXi(0, 3));
+  publisher.publish(moved, 4, engine::GeometryPublisher::Detail::Proxy);
+  EXPECT_FALSE(publisher.newest_is_proxy_only());
+  EXPECT_EQ(exchange.acquire()->position_normal, reference);
+}
+
+// A snapshot of the proxy's vertices alone is drawn as the proxy whatever the settings: the
+// same picture as the proxy of a whole publication, never the mesh with the other vertices where
+// an older publication left them.
+TEST_F(Render, AProxyPublicationIsDrawnAsTheProxy) {
+  const Mesh sphere = make_shape(ShapeKind::Sphere, 120).mesh;
+  const Eigen::MatrixXi proxy = engine::proxy_triangles(sphere.triangles, sphere.positions, 2000);
+  ASSERT_GT(proxy.rows(), 0);
+  engine::OffscreenTarget target(*context, 128, 128, 1);
+  engine::FrameSlots slots(*context, 1);
+  engine::MeshRenderer renderer(*context, target.render_pass(), target.format(), 1);
+  engine::GeometryExchange exchange(static_cast<std::size_t>(sphere.vertex_count()));
+  engine::GeometryPublisher publisher(exchange, sphere.triangles);
+  const engine::Bounds bounds{Eigen::Vector3f(-1.5f, -1.5f, -1.5f), Eigen::Vector3f(1.5f, 1.5f, 1.5f)};
+  renderer.set_mesh(sphere.triangles, exchange, bounds, engine::UpAxis::Z);
+  renderer.set_proxy(proxy);
+  publisher.set_proxy(proxy);
+  const auto camera = engine::Camera::three_quarter_front(bounds, engine::UpAxis::Z, 1.0f);
+  auto frame = [&](bool proxy_setting) {
+    engine::RenderSettings settings;
+    settings.ground = false;
+    settings.proxy = proxy_setting;
+    auto& slot = slots.begin();
+    renderer.prepare(slot.index, camera, settings, target.extent());
+    target.begin(slot.commands);
+    renderer.record(slot.commands, slot.index, target.extent());
+    target.finish(slot.commands);
+    slots.submit(slot);
+    slots.wait_all();
+    return target.pixels();
+  };
+  Eigen::MatrixXd moved = sphere.positions;
+  moved.col(1).array() += 0.6;
+  publisher.publish(moved);
+  const engine::Pixels proxy_of_whole = frame(true);
+  EXPECT_TRUE(renderer.prepared_proxy());
+  const engine::Pixels whole = frame(false);
+  EXPECT_FALSE(renderer.prepared_proxy());
+
+  publisher.publish(sphere.positions);  // every vertex elsewhere
+  frame(false);
+  publisher.publish(moved, 0, engine::GeometryPublisher::Detail::Proxy);
+  const engine::Pixels proxy_only = frame(false);
+  EXPECT_TRUE(renderer.prepared_proxy());
+  EXPECT_EQ(test::compare_images(proxy_of_whole, proxy_only, 0).differing_fraction, 0.0);
+  EXPECT_GT(test::compare_images(whole, proxy_only, 0).differing_fraction, 0.0);  // the proxy, not the mesh
+}
+
 TEST(VulkanContext, AnUnknownDeviceIsAClearError) {
   engine::ContextOptions options;
   options.device = "no-such-device-anywhere";

@@ -337,6 +337,8 @@ void EditorApp::step() {
       refinement_settled_ = false;
     }
     finish_pending_save();
+    note_publication_detail();
+    publish_whole_after_drag();
     if (document_->solver_state() == Document::SolverState::Building && build_started_ == Clock::time_point{}) build_started_ = Clock::now();
     if (document_->solver_state() != Document::SolverState::Building) build_started_ = {};
   }
@@ -417,7 +419,7 @@ void EditorApp::render(ImDrawData* draw_data) {
     engine::RenderSettings frame_settings = settings_;
     frame_settings.proxy = motion_detail_.proxy(now);
     renderer_->prepare(slot.index, camera_, frame_settings, extent);
-    motion_detail_.note_drawn(frame_settings.proxy);
+    motion_detail_.note_drawn(frame_settings.proxy || renderer_->prepared_proxy());
     shown_tag_ = renderer_->drawn_geometry_tag();
   }
   target_->begin(slot.commands, image);

@@ -396,7 +396,7 @@ void Document::install_build() {
     if (result.refinement.iterations == 0) last_update_ms_ = result.update_ms;
     // The positions go out first: once the view below says a refinement has finished (settled()),
     // its positions are the ones published.
-    if (publish_) publish_(result.positions, base + result.request);
+    if (publish_) publish_(result.positions, base + result.request, result.refinement.iterations > 0);
     {
       // The deformer's timings are its last update's or iteration's: this thread just ran it.
       std::lock_guard lock(refinement_mutex_);

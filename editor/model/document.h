@@ -27,9 +27,10 @@ enum class Layer { RegionOfInterest, Fixed, Handle };
 
 class Document {
  public:
-  // Called on a worker thread with each finished update's positions and the number that
-  // request_update() returned for it.
-  using Publish = std::function<void(const Eigen::MatrixXd& positions, std::uint64_t request)>;
+  // Called on a worker thread with each finished update's positions, the number that
+  // request_update() returned for it, and whether they are a refinement iteration's (the shape
+  // settling) rather than the paper's update.
+  using Publish = std::function<void(const Eigen::MatrixXd& positions, std::uint64_t request, bool refined)>;
 
   static constexpr int kFree = -1;
   static constexpr int kFixed = -2;
@@ -155,6 +156,9 @@ class Document {
   // (same rest shape and number of handles) still answers the drag.
   bool drags_previous_selection() const;
   std::uint64_t last_published_request() const { return last_published_.load(); }
+  // The newest request posted (request_update); last_published_request() reaches it once its
+  // answer is out.
+  std::uint64_t last_request() const { return last_request_; }
   // The positions for the current poses: the pipeline's final answer to them, the shape the
   // screen shows once settled, which is exactly what `hdeform edit --session` computes (waits for
   // a pending rebuild, the update in flight and the refinement until its stop).

@@ -3,7 +3,10 @@
 #include <Eigen/Geometry>
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
+
 #include "hdeform/mesh.h"
+#include "hdeform/trace.h"
 
 namespace hdeform::engine {
 
@@ -39,37 +42,91 @@ VertexNormals::VertexNormals(const Eigen::MatrixXi& triangles, Eigen::Index vert
   }
 }
 
+void VertexNormals::write_vertex(const Eigen::MatrixXd& positions, Eigen::Index v, float* out) const {
+  Eigen::Vector3d normal = Eigen::Vector3d::Zero();
+  for (int k = triangle_start_[static_cast<std::size_t>(v)]; k < triangle_start_[static_cast<std::size_t>(v) + 1]; ++k) {
+    normal += face_normals_[static_cast<std::size_t>(incident_[static_cast<std::size_t>(k)])];
+  }
+  const double length = normal.norm();
+  if (length > 0.0) normal /= length;
+  float* vertex = out + 6 * v;
+  for (int c = 0; c < 3; ++c) {
+    vertex[c] = static_cast<float>(positions(v, c));
+    vertex[3 + c] = static_cast<float>(normal(c));
+  }
+}
+
+namespace {
+Eigen::Vector3d face_normal(const Eigen::MatrixXd& positions, const Eigen::MatrixXi& triangles, Eigen::Index t) {
+  const Eigen::Vector3d a = positions.row(triangles(t, 0)), b = positions.row(triangles(t, 1)), c = positions.row(triangles(t, 2));
+  return (b - a).cross(c - a);  // length: twice the area
+}
+}  // namespace
+
 void VertexNormals::write(const Eigen::MatrixXd& positions, GeometrySnapshot& snapshot) {
   tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, triangles_.rows(), 4096), [&](const auto& range) {
-    for (Eigen::Index t = range.begin(); t != range.end(); ++t) {
-      const Eigen::Vector3d a = positions.row(triangles_(t, 0)), b = positions.row(triangles_(t, 1)), c = positions.row(triangles_(t, 2));
-      face_normals_[static_cast<std::size_t>(t)] = (b - a).cross(c - a);  // length: twice the area
-    }
+    for (Eigen::Index t = range.begin(); t != range.end(); ++t) face_normals_[static_cast<std::size_t>(t)] = face_normal(positions, triangles_, t);
   });
   float* out = snapshot.position_normal.data();
   tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, positions.rows(), 4096), [&](const auto& range) {
-    for (Eigen::Index v = range.begin(); v != range.end(); ++v) {
-      Eigen::Vector3d normal = Eigen::Vector3d::Zero();
-      for (int k = triangle_start_[static_cast<std::size_t>(v)]; k < triangle_start_[static_cast<std::size_t>(v) + 1]; ++k) {
-        normal += face_normals_[static_cast<std::size_t>(incident_[static_cast<std::size_t>(k)])];
-      }
-      const double length = normal.norm();
-      if (length > 0.0) normal /= length;
-      float* vertex = out + 6 * v;
-      for (int c = 0; c < 3; ++c) {
-        vertex[c] = static_cast<float>(positions(v, c));
-        vertex[3 + c] = static_cast<float>(normal(c));
-      }
+    for (Eigen::Index v = range.begin(); v != range.end(); ++v) write_vertex(positions, v, out);
+  });
+  snapshot.only_vertices.reset();
+}
+
+VertexNormals::Subset VertexNormals::subset(const Eigen::MatrixXi& triangles) const {
+  auto vertices = std::make_shared<std::vector<int>>(triangles.data(), triangles.data() + triangles.size());
+  std::sort(vertices->begin(), vertices->end());
+  vertices->erase(std::unique(vertices->begin(), vertices->end()), vertices->end());
+  Subset subset;
+  for (const int v : *vertices) {
+    for (int k = triangle_start_[static_cast<std::size_t>(v)]; k < triangle_start_[static_cast<std::size_t>(v) + 1]; ++k) {
+      subset.triangles.push_back(incident_[static_cast<std::size_t>(k)]);
+    }
+  }
+  std::sort(subset.triangles.begin(), subset.triangles.end());
+  subset.triangles.erase(std::unique(subset.triangles.begin(), subset.triangles.end()), subset.triangles.end());
+  subset.vertices = std::move(vertices);
+  return subset;
+}
+
+void VertexNormals::write(const Eigen::MatrixXd& positions, const Subset& subset, GeometrySnapshot& snapshot) {
+  const auto& triangles = subset.triangles;
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, triangles.size(), 4096), [&](const auto& range) {
+    for (std::size_t i = range.begin(); i != range.end(); ++i) {
+      face_normals_[static_cast<std::size_t>(triangles[i])] = face_normal(positions, triangles_, triangles[i]);
     }
   });
+  const auto& vertices = *subset.vertices;
+  float* out = snapshot.position_normal.data();
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, vertices.size(), 4096), [&](const auto& range) {
+    for (std::size_t i = range.begin(); i != range.end(); ++i) write_vertex(positions, vertices[i], out);
+  });
+  snapshot.only_vertices = subset.vertices;
 }
 
 GeometryPublisher::GeometryPublisher(GeometryExchange& exchange, const Eigen::MatrixXi& triangles)
     : exchange_(exchange), normals_(triangles, static_cast<Eigen::Index>(exchange.vertex_count())) {}
 
-void GeometryPublisher::publish(const Eigen::MatrixXd& positions, std::uint64_t tag) {
-  normals_.write(positions, exchange_.back());
-  exchange_.back().tag = tag;
+void GeometryPublisher::set_proxy(const Eigen::MatrixXi& proxy_triangles) {
+  validate_triangles(proxy_triangles, static_cast<Eigen::Index>(exchange_.vertex_count()), "proxy to publish");
+  auto proxy = proxy_triangles.rows() > 0 ? std::make_shared<const VertexNormals::Subset>(normals_.subset(proxy_triangles)) : nullptr;
+  const std::lock_guard lock(mutex_);
+  proxy_ = std::move(proxy);
+}
+
+void GeometryPublisher::publish(const Eigen::MatrixXd& positions, std::uint64_t tag, Detail detail) {
+  const std::lock_guard lock(mutex_);
+  GeometrySnapshot& back = exchange_.back();
+  if (detail == Detail::Proxy && proxy_) {
+    const trace::Scope traced("positions and normals, the proxy's vertices", "publish");
+    normals_.write(positions, *proxy_, back);
+  } else {
+    const trace::Scope traced("positions and normals, every vertex", "publish");
+    normals_.write(positions, back);
+  }
+  back.tag = tag;
+  newest_proxy_only_.store(back.only_vertices != nullptr, std::memory_order_release);
   exchange_.publish();
 }
 

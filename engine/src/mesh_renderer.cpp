@@ -276,6 +276,7 @@ void MeshRenderer::release_mesh_buffers() {
     context_.destroy(frame.attributes);
     context_.destroy(frame.markers);
     frame.geometry_version = frame.attributes_version = frame.markers_version = 0;
+    frame.geometry_proxy_only = false;
     frame.marker_count = 0;
   }
 }
@@ -359,14 +360,22 @@ void MeshRenderer::prepare(uint32_t frame_index, const Camera& camera, const Ren
   if (geometry_ != nullptr) {
     if (const GeometrySnapshot* snapshot = geometry_->acquire()) {
       if (snapshot->version != frame.geometry_version) {
-        std::memcpy(frame.geometry.mapped, snapshot->position_normal.data(), sizeof(float) * snapshot->position_normal.size());
+        if (snapshot->only_vertices) {
+          // The proxy's vertices alone: the frame draws nothing else of this geometry.
+          auto* to = static_cast<float*>(frame.geometry.mapped);
+          for (const int v : *snapshot->only_vertices) std::memcpy(to + 6 * v, snapshot->position_normal.data() + 6 * v, sizeof(float) * 6);
+        } else {
+          std::memcpy(frame.geometry.mapped, snapshot->position_normal.data(), sizeof(float) * snapshot->position_normal.size());
+        }
         frame.geometry_version = snapshot->version;
+        frame.geometry_proxy_only = snapshot->only_vertices != nullptr;
       }
       frame.has_geometry = true;
       drawn_geometry_version_ = frame.geometry_version;
       drawn_geometry_tag_ = snapshot->tag;
     }
   }
+  prepared_proxy_ = frame.has_geometry && proxy_index_count_ > 0 && (settings.proxy || frame.geometry_proxy_only);
   if (frame.attributes_version != attributes_version_ && frame.attributes.mapped != nullptr) {
     std::memcpy(frame.attributes.mapped, attributes_.data(), sizeof(float) * attributes_.size());
     frame.attributes_version = attributes_version_;
@@ -431,7 +440,7 @@ void MeshRenderer::record(VkCommandBuffer commands, uint32_t frame_index, VkRect
     const std::array<VkBuffer, 2> buffers{frame.geometry.buffer, frame.attributes.buffer};
     const std::array<VkDeviceSize, 2> offsets{0, 0};
     vkCmdBindVertexBuffers(commands, HD_VERTEX_BINDING_GEOMETRY, 2, buffers.data(), offsets.data());
-    const bool proxy = frame.settings.proxy && proxy_index_count_ > 0;
+    const bool proxy = (frame.settings.proxy || frame.geometry_proxy_only) && proxy_index_count_ > 0;
     const uint32_t index_count = proxy ? proxy_index_count_ : index_count_;
     vkCmdBindIndexBuffer(commands, proxy ? proxy_indices_.buffer : indices_.buffer, 0, VK_INDEX_TYPE_UINT32);
     using BackFaces = RenderSettings::BackFaces;

@@ -9,6 +9,8 @@
 #include <array>
 #include <atomic>
 #include <cstdint>
+#include <memory>
+#include <mutex>
 #include <vector>
 
 namespace hdeform::engine {
@@ -18,6 +20,9 @@ struct GeometrySnapshot {
   std::vector<float> position_normal;
   std::uint64_t version = 0;  ///< increases with every publication
   std::uint64_t tag = 0;      ///< the publisher's label (the editor: the request it answers)
+  /// Set when this publication wrote only these vertices (a proxy's, ascending): the others hold
+  /// an older one's geometry, so the snapshot is drawn only as the proxy. Null: every vertex.
+  std::shared_ptr<const std::vector<int>> only_vertices;
 };
 
 /// Hands positions and normals from one writer thread (the solver) to one reader thread (the
@@ -59,7 +64,20 @@ class VertexNormals {
   /// Writes positions (as floats) and unit normals into `snapshot`. Allocation-free.
   void write(const Eigen::MatrixXd& positions, GeometrySnapshot& snapshot);
 
+  /// Some vertices and the triangles around them: what write() of those vertices alone reads.
+  struct Subset {
+    std::shared_ptr<const std::vector<int>> vertices;  ///< ascending, distinct
+    std::vector<int> triangles;                         ///< every triangle at one of them, ascending
+  };
+  /// The subset of the vertices that `triangles` (a proxy's) use.
+  Subset subset(const Eigen::MatrixXi& triangles) const;
+  /// Writes the subset's vertices alone, each with the very bits write() gives it, and marks the
+  /// snapshot as holding them only. Allocation-free.
+  void write(const Eigen::MatrixXd& positions, const Subset& subset, GeometrySnapshot& snapshot);
+
  private:
+  void write_vertex(const Eigen::MatrixXd& positions, Eigen::Index v, float* out) const;
+
   Eigen::MatrixXi triangles_;
   std::vector<int> triangle_start_;  ///< per vertex: its incident triangles
   std::vector<int> incident_;
@@ -67,16 +85,29 @@ class VertexNormals {
 };
 
 /// What the solver thread calls after each update: positions → back buffer with normals → publish.
+/// Publications may come from several threads (the solver's, and the window's when it republishes);
+/// they are taken one at a time.
 class GeometryPublisher {
  public:
   /// Writes into `exchange` the geometry of a mesh with these triangles.
   GeometryPublisher(GeometryExchange& exchange, const Eigen::MatrixXi& triangles);
+
+  /// Every vertex, or only the proxy's (set_proxy) for frames that will draw the proxy anyway: a
+  /// drag on a large mesh then publishes a few thousand vertices instead of millions.
+  enum class Detail { Whole, Proxy };
+  /// The proxy's triangles (proxy_mesh.h); empty: none, and Proxy publishes the whole mesh.
+  void set_proxy(const Eigen::MatrixXi& proxy_triangles);
   /// Fills the back buffer with `positions` and their normals, labels it `tag`, and publishes it.
-  void publish(const Eigen::MatrixXd& positions, std::uint64_t tag = 0);
+  void publish(const Eigen::MatrixXd& positions, std::uint64_t tag = 0, Detail detail = Detail::Whole);
+  /// Whether the newest publication holds only the proxy's vertices.
+  bool newest_is_proxy_only() const { return newest_proxy_only_.load(std::memory_order_acquire); }
 
  private:
   GeometryExchange& exchange_;
+  std::mutex mutex_;  // one publication at a time; guards proxy_ too
   VertexNormals normals_;
+  std::shared_ptr<const VertexNormals::Subset> proxy_;
+  std::atomic<bool> newest_proxy_only_{false};
 };
 
 }  // namespace hdeform::engine

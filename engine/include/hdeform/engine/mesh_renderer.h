@@ -98,6 +98,9 @@ class MeshRenderer {
   std::uint64_t drawn_geometry_version() const { return drawn_geometry_version_; }
   /// The tag of the geometry the last prepare() took (the publisher's label).
   std::uint64_t drawn_geometry_tag() const { return drawn_geometry_tag_; }
+  /// Whether the frame the last prepare() set up draws the proxy: when its settings ask, or when
+  /// its geometry holds only the proxy's vertices (GeometrySnapshot::only_vertices).
+  bool prepared_proxy() const { return prepared_proxy_; }
 
  private:
   struct Frame {
@@ -112,6 +115,7 @@ class MeshRenderer {
     uint32_t marker_count = 0;
     RenderSettings settings;  ///< as prepared
     bool has_geometry = false;
+    bool geometry_proxy_only = false;  ///< the geometry holds only the proxy's vertices: drawn as the proxy
     bool field_visible = false;
   };
 
@@ -146,6 +150,7 @@ class MeshRenderer {
   std::uint64_t markers_version_ = 1;
   std::uint64_t drawn_geometry_version_ = 0;
   std::uint64_t drawn_geometry_tag_ = 0;
+  bool prepared_proxy_ = false;
 };
 
 }  // namespace hdeform::engine
