@@ -6,6 +6,7 @@
 // is explained in a dialog; typed values are undoable and reach the recovery file; SIGTERM keeps
 // the session for a restore prompt that names it; the validation layer reports nothing.
 #include "editor_gui_harness.h"
+#include "hdeform/engine/proxy_mesh.h"
 
 namespace hdeform {
 namespace {
@@ -76,6 +77,69 @@ TEST_F(EditorGui, PaintDragAndSaveGiveTheBatchReplayAndTheScreenShowsTheOffscree
   const auto difference = test::compare_images(window_picture, offscreen, 24);
   EXPECT_LE(difference.differing_fraction, 0.005) << "largest channel difference " << difference.largest;
   EXPECT_EQ(context->validation_message_count(), 0u);
+}
+
+// On a mesh large enough for a proxy (lavapipe), a drag publishes only the proxy's vertices, and
+// the drag's end publishes the whole shape again (without refinement, whose iterations would
+// publish it anyway): the timeline says which was published when, and the screen then shows the
+// whole saved mesh, as the offscreen renderer draws it.
+TEST_F(EditorGui, ADragPublishesTheProxysVerticesAndTheShapeIsWholeAfterIt) {
+  shape = make_shape(ShapeKind::Cactus, 128);
+  ASSERT_GT(shape.mesh.triangle_count(), 2 * engine::kProxyTriangles) << "too small for a proxy";
+  write_obj(dir.file("large.obj"), shape.mesh);
+  rest = read_obj(dir.file("large.obj"));
+  view.camera = engine::Camera::three_quarter_front(engine::Bounds::of(rest.positions), engine::UpAxis::Z, static_cast<float>(kWidth) / kHeight,
+                                                    kPanelWidth / static_cast<float>(kWidth));
+  auto arguments = editor_arguments("no");
+  arguments.front() = dir.file("large.obj").string();
+  arguments.insert(arguments.end(), {"--no-refine", "--trace", dir.file("trace.json").string()});
+  Editor editor(arguments);
+  editor.wait_for("opened");
+  editor.wait_for("proxy");
+  ASSERT_NO_FATAL_FAILURE(find_window());
+  const Eigen::Vector2f tip = paint_sink_and_handle(editor);
+  grab_and_drag(tip, {90.0f, -40.0f});
+  const json saved = save(editor);
+  ASSERT_FALSE(saved.is_null());
+  const auto screenshot_events = editor.event_count();
+  press("F12");
+  const json screenshot = editor.wait_for("screenshot", 60s, screenshot_events);
+  quit(editor);
+
+  const auto events = test::read_checked_trace(dir.file("trace.json"));
+  const auto partial = test::named(events, "positions and normals, the proxy's vertices");
+  const auto whole = test::named(events, "positions and normals, every vertex");
+  EXPECT_FALSE(partial.empty()) << "the drag published every vertex";
+  ASSERT_FALSE(whole.empty());
+  if (!partial.empty()) {
+    const auto latest = [](const std::vector<test::TraceEvent>& list) {
+      double at = 0.0;
+      for (const auto& event : list) at = std::max(at, event.start_us);
+      return at;
+    };
+    EXPECT_GT(latest(whole), latest(partial)) << "the drag's end was not published whole";
+  }
+
+  const Mesh result = read_obj(saved["obj"].get<std::string>());
+  const auto session = cli::read_session(saved["session"].get<std::string>());
+  ASSERT_EQ(session.current.handles.size(), 1u);
+  engine::Scene scene;
+  scene.positions = result.positions;
+  scene.triangles = rest.triangles;
+  scene.rest_bounds = engine::Bounds::of(rest.positions);
+  const Deformer deformer(rest, session.current.constraints());
+  scene.field = deformer.field();
+  scene.classes.assign(static_cast<std::size_t>(rest.vertex_count()), HD_CLASS_FREE);
+  for (const int v : session.current.fixed) scene.classes[static_cast<std::size_t>(v)] = engine::fixed_class();
+  for (const int v : session.current.handles[0].vertices) scene.classes[static_cast<std::size_t>(v)] = engine::handle_class(0);
+  engine::Shot shot;
+  shot.width = kWidth;
+  shot.height = kHeight;
+  shot.samples = 1;
+  shot.camera = view.camera;
+  const auto context = test::validated_context();
+  const auto difference = test::compare_images(engine::read_png(screenshot["path"].get<std::string>()), engine::render_offscreen(*context, scene, shot), 24);
+  EXPECT_LE(difference.differing_fraction, 0.005) << "largest channel difference " << difference.largest;
 }
 
 // --trace: the session's timeline holds the inputs, each frame's processor work, the device's
