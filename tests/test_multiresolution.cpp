@@ -6,6 +6,7 @@
 #include <tbb/global_control.h>
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 #include <set>
@@ -331,6 +332,67 @@ TEST(Multiresolution, FixedAndHandleVerticesEndWhereTheirConstraintsPutThem) {
   check("the paper's update");
   EXPECT_GT(deformer.refine(positions, 20), 0);
   check("refined");
+}
+
+// The editor's drag asks for a proxy's vertices alone: those come out with the bits the whole
+// update gives them, the others are left as they were, and complete() then gives the whole
+// update to the last bit; an exact solve writes every vertex anyway.
+TEST(Multiresolution, SomeVerticesNowAndTheRestLaterGiveTheWholeUpdate) {
+  const Relief relief = bar_with_relief();
+  DeformerOptions options = multiresolution(relief.mesh.vertex_count() / 8);
+  Deformer whole(relief.mesh, relief.constraints, options), partial(relief.mesh, relief.constraints, options);
+  Eigen::MatrixXd expected, positions = relief.mesh.positions;
+  whole.deform(std::span(&relief.transform, 1), expected);
+  std::vector<int> some;
+  for (int v = 0; v < relief.mesh.vertex_count(); v += 7) some.push_back(v);
+  const Eigen::MatrixXd before = positions;
+  EXPECT_FALSE(partial.deform_vertices(std::span(&relief.transform, 1), positions, some));
+  std::vector<char> rebuilt(static_cast<std::size_t>(relief.mesh.vertex_count()), 0);
+  for (const int v : some) rebuilt[static_cast<std::size_t>(v)] = 1;
+  for (const int v : relief.constraints.fixed) rebuilt[static_cast<std::size_t>(v)] = 1;
+  for (const int v : relief.constraints.handles[0]) rebuilt[static_cast<std::size_t>(v)] = 1;
+  std::size_t wrong = 0, moved_elsewhere = 0;
+  for (Eigen::Index v = 0; v < positions.rows(); ++v) {
+    if (rebuilt[static_cast<std::size_t>(v)]) wrong += (positions.row(v).array() != expected.row(v).array()).any() ? 1 : 0;
+    else moved_elsewhere += (positions.row(v).array() != before.row(v).array()).any() ? 1 : 0;
+  }
+  EXPECT_EQ(wrong, 0u);
+  EXPECT_EQ(moved_elsewhere, 0u) << "rows outside the request were written";
+  EXPECT_GT((expected - before).cwiseAbs().maxCoeff(), 0.01 * relief.diagonal);  // the test would see a missed row
+  partial.complete(positions);
+  EXPECT_TRUE((positions.array() == expected.array()).all());
+  // Positions of another size cannot keep the other rows.
+  Eigen::MatrixXd empty;
+  EXPECT_THROW(partial.deform_vertices(std::span(&relief.transform, 1), empty, some), std::invalid_argument);
+  // Solved exactly, every row is written.
+  Deformer exact(relief.mesh, relief.constraints);
+  Eigen::MatrixXd exact_expected, exact_positions = relief.mesh.positions;
+  exact.deform(std::span(&relief.transform, 1), exact_expected);
+  EXPECT_TRUE(exact.deform_vertices(std::span(&relief.transform, 1), exact_positions, some));
+  EXPECT_TRUE((exact_positions.array() == exact_expected.array()).all());
+}
+
+TEST(DetailEncoding, SomeVerticesAreRebuiltAsTheWholeRebuildDoesAndOnlyThey) {
+  const Relief relief = bar_with_relief();
+  const BaseMesh base = simplify_to_base(relief.mesh, relief.mesh.vertex_count() / 10);
+  const DetailEncoding encoding(relief.mesh, base);
+  Eigen::MatrixXd bent = base.mesh.positions;
+  for (Eigen::Index j = 0; j < bent.rows(); ++j) bent.row(j) += Eigen::RowVector3d(0.3 * bent(j, 2) * bent(j, 2), 0.0, 0.1 * bent(j, 0));
+  DetailEncoding::Workspace workspace = encoding.workspace();
+  Eigen::MatrixXd whole;
+  encoding.reconstruct(bent, whole, workspace);
+  const std::vector<int> some{0, 3, 17, 4, static_cast<int>(relief.mesh.vertex_count()) - 1};  // any order
+  Eigen::MatrixXd positions = Eigen::MatrixXd::Constant(relief.mesh.vertex_count(), 3, 42.0);
+  encoding.reconstruct(bent, positions, workspace, some);
+  for (Eigen::Index v = 0; v < positions.rows(); ++v) {
+    const bool asked = std::find(some.begin(), some.end(), static_cast<int>(v)) != some.end();
+    if (asked) EXPECT_TRUE((positions.row(v).array() == whole.row(v).array()).all()) << v;
+    else EXPECT_TRUE((positions.row(v).array() == 42.0).all()) << v;
+  }
+  const std::vector<int> outside{static_cast<int>(relief.mesh.vertex_count())};
+  EXPECT_THROW(encoding.reconstruct(bent, positions, workspace, outside), std::invalid_argument);
+  Eigen::MatrixXd small(3, 3);
+  EXPECT_THROW(encoding.reconstruct(bent, small, workspace, some), std::invalid_argument);
 }
 
 TEST(Multiresolution, AHandleSmallerThanABaseTriangleReachesTheBase) {

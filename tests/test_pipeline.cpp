@@ -1,5 +1,7 @@
+#include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <memory>
 #include <mutex>
 #include <thread>
 
@@ -150,6 +152,77 @@ TEST(UpdatePipeline, WithADelayRefinementWaitsForTheInputToRest) {
     EXPECT_GE(when - last_submit, std::chrono::milliseconds(120));
   }
   EXPECT_TRUE(refined);
+}
+
+// The editor's drag on a base asks for the proxy's vertices only: each answer is published as
+// partial, and once the input rests the rest of the vertices follow, published whole, before the
+// refinement; what the pipeline settles on is what whole requests give, to the last bit.
+TEST(UpdatePipeline, APartialAnswerIsMadeWholeOnceTheInputRests) {
+  auto shape = make_shape(ShapeKind::Cactus, 64);
+  DeformerOptions options;
+  options.resolution = Resolution::Multiresolution;
+  options.base_vertices = shape.mesh.vertex_count() / 4;
+  options.prepare_refinement = true;
+  auto some = std::make_shared<std::vector<int>>();
+  for (int v = 0; v < shape.mesh.vertex_count(); v += 5) some->push_back(v);
+  using Clock = std::chrono::steady_clock;
+  for (const bool refine : {false, true}) {
+    SCOPED_TRACE(refine ? "refinement on" : "refinement off");
+    Deformer deformer(shape.mesh, shape.demo_constraints, options), reference(shape.mesh, shape.demo_constraints, options);
+    struct Seen {
+      bool partial, completion;
+      int iterations;
+      std::uint64_t request;
+      Clock::time_point when;
+    };
+    std::mutex mutex;
+    std::vector<Seen> seen;
+    Eigen::MatrixXd last;
+    UpdatePipeline pipeline(deformer, [&](const UpdatePipeline::Result& result) {
+      std::lock_guard lock(mutex);
+      seen.push_back({result.partial, result.completion, result.refinement.iterations, result.request, Clock::now()});
+      last = result.positions;
+    });
+    pipeline.set_refinement(refine);
+    pipeline.set_refinement_delay(std::chrono::milliseconds(100));
+    Clock::time_point last_submit;
+    std::uint64_t final_request = 0;
+    HandleTransform step;
+    for (int k = 1; k <= 4; ++k) {
+      step = shape.demo_transform.at_fraction(k / 4.0);
+      last_submit = Clock::now();
+      final_request = pipeline.submit(std::span(&step, 1), some);
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    const Eigen::MatrixXd settled = pipeline.settled_positions();
+    EXPECT_EQ(pipeline.last_error(), nullptr);
+    {
+      std::lock_guard lock(mutex);
+      ASSERT_FALSE(seen.empty());
+      const auto completion = std::find_if(seen.begin(), seen.end(), [](const Seen& s) { return s.completion; });
+      ASSERT_NE(completion, seen.end()) << "the partial answer was never made whole";
+      EXPECT_EQ(std::count_if(seen.begin(), seen.end(), [](const Seen& s) { return s.completion; }), 1);
+      EXPECT_FALSE(completion->partial);
+      EXPECT_EQ(completion->request, final_request);
+      EXPECT_GE(completion->when - last_submit, std::chrono::milliseconds(100));
+      for (auto it = seen.begin(); it != completion; ++it) {
+        EXPECT_TRUE(it->partial && it->iterations == 0) << "before the rest of the vertices: partial updates only";
+      }
+      for (auto it = completion + 1; it != seen.end(); ++it) EXPECT_TRUE(!it->partial && it->iterations > 0);
+      EXPECT_EQ(last, settled);
+    }
+    // Whole requests settle on the same bits.
+    UpdatePipeline whole(reference, [](const UpdatePipeline::Result&) {});
+    whole.set_refinement(refine);
+    whole.submit(std::span(&step, 1));
+    EXPECT_TRUE((whole.settled_positions().array() == settled.array()).all());
+    if (!refine) {
+      Eigen::MatrixXd expected;
+      Deformer fresh(shape.mesh, shape.demo_constraints, options);
+      fresh.deform(std::span(&step, 1), expected);
+      EXPECT_TRUE((settled.array() == expected.array()).all());
+    }
+  }
 }
 
 }  // namespace

@@ -194,6 +194,16 @@ class Deformer {
   /// paper's result, so that the refined shape of a pose is the same bits whatever came before.
   void deform(std::span<const HandleTransform> transforms, Eigen::MatrixXd& positions,
               RefinementStart start = RefinementStart::FromPapersResult);
+  /// deform() where only `vertices` are needed now (the editor's drag, drawing a proxy over them):
+  /// solved on a base (multiresolution), only they are rebuilt from it, each with the bits deform()
+  /// gives it, and the constrained vertices are placed; the other rows of `positions` (which must
+  /// have the mesh's size) keep what they held until complete(). Returns whether every row was
+  /// written (an exact solve writes them all).
+  bool deform_vertices(std::span<const HandleTransform> transforms, Eigen::MatrixXd& positions, std::span<const int> vertices,
+                       RefinementStart start = RefinementStart::FromPapersResult);
+  /// Rebuilds every row of the last update from its base: after deform_vertices(), `positions`
+  /// is then what deform() would have written. Nothing to do for an exact solve.
+  void complete(Eigen::MatrixXd& positions);
 
   /// As-rigid-as-possible refinement (refinement.h) of the last deform(): runs up to
   /// `max_iterations` local/global iterations, fewer once they have converged (RefinementOptions),
@@ -250,6 +260,7 @@ class Deformer {
   std::unique_ptr<Deformer> base_;
   Eigen::MatrixXd base_positions_;
   DetailEncoding::Workspace reconstruction_workspace_;
+  std::optional<std::span<const int>> only_vertices_;  // deform_vertices(): the rows deform() rebuilds
 };
 
 }  // namespace hdeform

@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <array>
 #include <memory>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -103,6 +104,11 @@ class DetailEncoding {
   /// for another base), allocation-free once `fine_positions` has the fine size. Nothing of a
   /// rebuild is carried to the next: one workspace may serve any encoding of the same base size.
   void reconstruct(const Eigen::MatrixXd& base_positions, Eigen::MatrixXd& fine_positions, Workspace& workspace) const;
+  /// The same for the fine `vertices` alone (say, those a proxy draws), each row the bits the
+  /// whole rebuild gives it; the other rows keep what they held (`fine_positions` must have the
+  /// fine size).
+  void reconstruct(const Eigen::MatrixXd& base_positions, Eigen::MatrixXd& fine_positions, Workspace& workspace,
+                   std::span<const int> vertices) const;
 
   /// Per-vertex values of the base carried to the fine mesh, linearly over the foot triangles.
   Eigen::VectorXd interpolate(const Eigen::VectorXd& base_values) const;
@@ -116,6 +122,12 @@ class DetailEncoding {
   double largest_detail() const { return largest_detail_; }
 
  private:
+  // The rebuild of `count` fine vertices, the i-th being vertex_at(i); `resize`: fine_positions
+  // takes the fine size first (a whole rebuild).
+  template <class Vertex>
+  void rebuild(const Eigen::MatrixXd& base_positions, Eigen::MatrixXd& fine_positions, Workspace& workspace, Eigen::Index count,
+               const Vertex& vertex_at, bool resize) const;
+
   Eigen::Index base_count_ = 0;
   Eigen::MatrixXi base_triangles_;
   std::vector<int> base_of_fine_;  ///< −1: not a base vertex; kInexactRest: nor, and in inexact_rest_

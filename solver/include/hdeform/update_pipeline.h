@@ -12,12 +12,19 @@
 /// With refinement on, the thread answers each request with the paper's update first and then,
 /// while no newer request waits, runs as-rigid-as-possible iterations one at a time, publishing
 /// each, until they converge; a new request takes over after the iteration in flight.
+///
+/// A request may ask for some vertices only (the editor's drag, drawing a proxy over them): on a
+/// base (multiresolution) only they are rebuilt and published, marked partial. Once no request
+/// waits and the refinement's delay has passed, the thread rebuilds every vertex and publishes
+/// them before anything else; wait_idle() and settled_positions() wait for that too, so what they
+/// give is always whole.
 #include <Eigen/Core>
 #include <chrono>
 #include <condition_variable>
 #include <cstdint>
 #include <exception>
 #include <functional>
+#include <memory>
 #include <mutex>
 #include <span>
 #include <thread>
@@ -38,6 +45,11 @@ class UpdatePipeline {
     double update_ms;       ///< the paper's update, or the refinement iteration
     /// Refinement iterations in these positions (0: the paper's update) and where they stand.
     RefinementStatus refinement;
+    /// Only the requested vertices hold this answer (submit()'s `only_vertices`); the others an
+    /// earlier one's.
+    bool partial = false;
+    /// The rows a partial answer left, rebuilt: the same request's update made whole.
+    bool completion = false;
   };
   /// Called on a worker thread after each finished update; must not block for long.
   using Publish = std::function<void(const Result&)>;
@@ -48,8 +60,9 @@ class UpdatePipeline {
   UpdatePipeline(const UpdatePipeline&) = delete;
   UpdatePipeline& operator=(const UpdatePipeline&) = delete;
 
-  /// Posts transforms (one per handle); returns at once with the request's number.
-  std::uint64_t submit(std::span<const HandleTransform> transforms);
+  /// Posts transforms (one per handle); returns at once with the request's number. With
+  /// `only_vertices`, the answer need hold only those vertices (Deformer::deform_vertices).
+  std::uint64_t submit(std::span<const HandleTransform> transforms, std::shared_ptr<const std::vector<int>> only_vertices = {});
   /// Blocks until no update is waiting or running and the refinement, when on, has converged.
   void wait_idle();
   /// ... and then the positions last published: the final answer to the last request.
@@ -86,6 +99,9 @@ class UpdatePipeline {
   std::vector<HandleTransform> pending_;
   std::vector<HandleTransform> current_;
   bool has_pending_ = false;
+  std::shared_ptr<const std::vector<int>> pending_only_;  ///< the waiting request's vertices (null: all)
+  std::shared_ptr<const std::vector<int>> current_only_;
+  bool whole_ = true;  ///< positions_ hold every vertex of the last answer
   bool busy_ = false;  ///< the thread is answering a request or refining (the lock is not held meanwhile)
   bool refine_ = false;
   bool refined_out_ = true;  ///< the last result needs no more iterations (converged, or no refinement)

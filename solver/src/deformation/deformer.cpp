@@ -401,7 +401,8 @@ void Deformer::deform(std::span<const HandleTransform> transforms, Eigen::Matrix
   if (base_) {
     base_->deform(transforms, base_positions_, start);
     const auto detail_began = Clock::now();
-    operators_->multiresolution->encoding.reconstruct(base_positions_, positions, reconstruction_workspace_);
+    if (only_vertices_) operators_->multiresolution->encoding.reconstruct(base_positions_, positions, reconstruction_workspace_, *only_vertices_);
+    else operators_->multiresolution->encoding.reconstruct(base_positions_, positions, reconstruction_workspace_);
     write_constrained(transforms, positions);
     last_update_ = base_->last_update();
     last_update_.detail_ms = milliseconds_since(detail_began);
@@ -475,6 +476,32 @@ void Deformer::begin_refinement(const Eigen::MatrixXd& positions) {
     }
     refinement.begin(positions, refinement_start_);
   });
+}
+
+bool Deformer::deform_vertices(std::span<const HandleTransform> transforms, Eigen::MatrixXd& positions, std::span<const int> vertices,
+                               RefinementStart start) {
+  if (!base_) {
+    deform(transforms, positions, start);
+    return true;
+  }
+  if (positions.rows() != rest_.vertex_count() || positions.cols() != 3) {
+    throw std::invalid_argument("deform_vertices: positions must be the " + std::to_string(rest_.vertex_count()) + "×3 result of an earlier update");
+  }
+  only_vertices_ = vertices;
+  try {
+    deform(transforms, positions, start);
+  } catch (...) {
+    only_vertices_.reset();
+    throw;
+  }
+  only_vertices_.reset();
+  return false;
+}
+
+void Deformer::complete(Eigen::MatrixXd& positions) {
+  if (!base_) return;
+  operators_->multiresolution->encoding.reconstruct(base_positions_, positions, reconstruction_workspace_);
+  write_constrained(edited_, positions);
 }
 
 int Deformer::refine(Eigen::MatrixXd& positions, int max_iterations) {

@@ -27,11 +27,12 @@ UpdatePipeline::~UpdatePipeline() {
   thread_.join();
 }
 
-std::uint64_t UpdatePipeline::submit(std::span<const HandleTransform> transforms) {
+std::uint64_t UpdatePipeline::submit(std::span<const HandleTransform> transforms, std::shared_ptr<const std::vector<int>> only_vertices) {
   std::uint64_t request = 0;
   {
     std::lock_guard lock(mutex_);
     pending_.assign(transforms.begin(), transforms.end());
+    pending_only_ = std::move(only_vertices);
     if (has_pending_) ++superseded_;
     has_pending_ = true;
     trace::counter("requests waiting", 1.0);
@@ -53,8 +54,9 @@ void UpdatePipeline::run() {
       for (;;) {
         if (stopping_) return;
         if (has_pending_) break;
-        if (wants_refinement()) {
-          // Refinement waits until the input has rested for the delay (a new request ends the wait).
+        if (wants_refinement() || !whole_) {
+          // Refinement (and the rebuild of a partial answer) waits until the input has rested
+          // for the delay (a new request ends the wait).
           const auto ready = last_submit_ + refinement_delay_;
           if (std::chrono::steady_clock::now() >= ready) break;
           wake_.wait_until(lock, ready);
@@ -66,6 +68,7 @@ void UpdatePipeline::run() {
       busy_ = true;
       if (has_pending_) {
         std::swap(current_, pending_);
+        current_only_ = std::move(pending_only_);
         has_pending_ = false;
         trace::counter("requests waiting", 0.0);
         request = pending_request_;
@@ -79,9 +82,15 @@ void UpdatePipeline::run() {
       const auto start = std::chrono::steady_clock::now();
       RefinementStatus status;
       bool converged = true;
+      bool whole = true, completion = false;
       if (update) {
         const trace::Scope traced("request", "pipeline", static_cast<std::int64_t>(request));
-        deformer_.deform(current_, positions_);
+        if (current_only_) whole = deformer_.deform_vertices(current_, positions_, *current_only_);
+        else deformer_.deform(current_, positions_);
+      } else if (!whole_) {
+        const trace::Scope traced("the rest of the vertices", "pipeline", static_cast<std::int64_t>(request));
+        deformer_.complete(positions_);
+        completion = true;
       } else {
         deformer_.refine(positions_, 1);
         status = deformer_.refinement_status();
@@ -90,20 +99,23 @@ void UpdatePipeline::run() {
       const double elapsed = milliseconds_since(start);
       const auto now = std::chrono::steady_clock::now();
       bool publish = true;
-      if (!update && !converged && status.iterations < deformer_.refinement_options().max_iterations) {
+      if (!update && !completion && !converged && status.iterations < deformer_.refinement_options().max_iterations) {
         std::lock_guard lock(mutex_);
         publish = now - last_publication_ >= publication_interval_;
       }
       if (publish) {
         const trace::Scope traced("publish", "pipeline");
-        publish_(Result{positions_, request, elapsed, status});
+        publish_(Result{positions_, request, elapsed, status, !whole, completion});
         last_publication_ = now;
       }
       std::lock_guard lock(mutex_);
+      whole_ = whole;
       if (update) {
         ++finished_;
         has_result_ = true;
         refined_out_ = !refine_;
+      } else if (completion) {
+        // The same answer, whole: the refinement (when on) starts from it.
       } else {
         refined_out_ = converged || status.iterations >= deformer_.refinement_options().max_iterations;
       }
@@ -111,12 +123,13 @@ void UpdatePipeline::run() {
       std::lock_guard lock(mutex_);
       error_ = std::current_exception();
       refined_out_ = true;
+      whole_ = true;  // nothing more to try for this answer (the error says why)
     }
   }
 }
 
 bool UpdatePipeline::wants_refinement() const { return refine_ && !refined_out_ && has_result_; }
-bool UpdatePipeline::has_work() const { return has_pending_ || wants_refinement(); }
+bool UpdatePipeline::has_work() const { return has_pending_ || !whole_ || wants_refinement(); }
 
 void UpdatePipeline::set_refinement_delay(std::chrono::milliseconds delay) {
   {

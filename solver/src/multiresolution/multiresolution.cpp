@@ -339,6 +339,25 @@ void DetailEncoding::reconstruct(const Eigen::MatrixXd& base_positions, Eigen::M
 }
 
 void DetailEncoding::reconstruct(const Eigen::MatrixXd& base_positions, Eigen::MatrixXd& fine_positions, Workspace& workspace) const {
+  rebuild(base_positions, fine_positions, workspace, fine_count(), [](Eigen::Index i) { return i; }, true);
+}
+
+void DetailEncoding::reconstruct(const Eigen::MatrixXd& base_positions, Eigen::MatrixXd& fine_positions, Workspace& workspace,
+                                 std::span<const int> vertices) const {
+  if (fine_positions.rows() != fine_count() || fine_positions.cols() != 3) {
+    throw std::invalid_argument("DetailEncoding::reconstruct: a rebuild of some vertices needs the fine positions (" + std::to_string(fine_count()) +
+                                "×3) to keep the others");
+  }
+  for (const int v : vertices) {
+    if (v < 0 || v >= fine_count()) throw std::invalid_argument("DetailEncoding::reconstruct: vertex " + std::to_string(v) + " is not in the fine mesh");
+  }
+  rebuild(base_positions, fine_positions, workspace, static_cast<Eigen::Index>(vertices.size()),
+          [&](Eigen::Index i) { return static_cast<Eigen::Index>(vertices[static_cast<std::size_t>(i)]); }, false);
+}
+
+template <class Vertex>
+void DetailEncoding::rebuild(const Eigen::MatrixXd& base_positions, Eigen::MatrixXd& fine_positions, Workspace& workspace, Eigen::Index count,
+                             const Vertex& vertex_at, bool resize) const {
   if (base_positions.rows() != base_count_ || base_positions.cols() != 3) {
     throw std::invalid_argument("DetailEncoding::reconstruct: the base positions are " + std::to_string(base_positions.rows()) + "×" +
                                 std::to_string(base_positions.cols()) + " for a base of " + std::to_string(base_count_) + " vertices");
@@ -346,18 +365,19 @@ void DetailEncoding::reconstruct(const Eigen::MatrixXd& base_positions, Eigen::M
   if (!workspace.scales_ || workspace.scales_->of_triangle.size() != static_cast<std::size_t>(base_triangles_.rows())) {
     throw std::invalid_argument("DetailEncoding::reconstruct: the workspace is sized for another base (DetailEncoding::workspace() makes one)");
   }
-  const trace::Scope traced("fine mesh from the base", "update");
+  if (resize) fine_positions.resize(fine_count(), 3);
+  const trace::Scope traced(resize ? "fine mesh from the base" : "fine mesh from the base, some vertices", "update");
   auto corner = [&](Eigen::Index t, int k) -> Eigen::Vector3d { return base_positions.row(base_triangles_(t, k)).transpose(); };
   std::vector<FrameScales>& scales = workspace.scales_->of_triangle;
   tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, base_triangles_.rows(), kVertexGrain), [&](const auto& range) {
     for (Eigen::Index t = range.begin(); t != range.end(); ++t) scales[static_cast<std::size_t>(t)] = frame_scales(corner(t, 0), corner(t, 1), corner(t, 2));
   });
-  fine_positions.resize(fine_count(), 3);
-  tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, fine_count(), kVertexGrain), [&](const auto& range) {
-    for (Eigen::Index v = range.begin(); v != range.end(); ++v) {
-      const auto i = static_cast<std::size_t>(v);
-      const int t = foot_triangle_[i];
-      const int own = base_of_fine_[i];
+  tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, count, kVertexGrain), [&](const auto& range) {
+    for (Eigen::Index i = range.begin(); i != range.end(); ++i) {
+      const Eigen::Index v = vertex_at(i);
+      const auto fine = static_cast<std::size_t>(v);
+      const int t = foot_triangle_[fine];
+      const int own = base_of_fine_[fine];
       if (own >= 0) {
         fine_positions.row(v) = base_positions.row(own);
       } else if (t < 0) {
