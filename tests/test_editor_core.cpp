@@ -133,7 +133,7 @@ class DocumentTest : public ::testing::Test {
     shape = make_shape(ShapeKind::Cactus, 24);
     cli::Session session;
     session.mesh = "shape:cactus:24";
-    document = std::make_unique<cli::Document>(session, shape.mesh, DeformerOptions{}, [this](const Eigen::MatrixXd&, std::uint64_t, bool) { ++publications; });
+    document = std::make_unique<cli::Document>(session, shape.mesh, DeformerOptions{}, [this](const Eigen::MatrixXd&, std::uint64_t, cli::Document::Answer) { ++publications; });
   }
   Shape shape;
   std::unique_ptr<cli::Document> document;
@@ -297,7 +297,7 @@ TEST_F(DocumentTest, ARebuildRunsOffTheCallingThreadAndTheStateSaysSo) {
 TEST_F(DocumentTest, WhileANewSelectionIsSetUpTheDragUsesThePreviousOne) {
   std::mutex mutex;
   std::vector<std::pair<std::uint64_t, Eigen::MatrixXd>> published;
-  document->set_publish([&](const Eigen::MatrixXd& positions, std::uint64_t request, bool) {
+  document->set_publish([&](const Eigen::MatrixXd& positions, std::uint64_t request, cli::Document::Answer) {
     const std::lock_guard lock(mutex);
     published.emplace_back(request, positions);
   });

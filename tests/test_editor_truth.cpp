@@ -26,7 +26,7 @@ class ShownShapeTest : public ::testing::Test {
     session.current.handles.push_back({shape.demo_constraints.handles[0], HandleTransform::about_pivot(Eigen::Vector3d::UnitZ(), pivot(), 0.0)});
     session.current.refine = true;
     session.current.refine_settle = kEditorSettle;
-    document = std::make_unique<cli::Document>(session, shape.mesh, DeformerOptions{}, [this](const Eigen::MatrixXd& positions, std::uint64_t, bool) {
+    document = std::make_unique<cli::Document>(session, shape.mesh, DeformerOptions{}, [this](const Eigen::MatrixXd& positions, std::uint64_t, cli::Document::Answer) {
       std::lock_guard lock(mutex);
       shown = positions;
     });

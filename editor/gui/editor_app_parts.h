@@ -363,7 +363,19 @@ class EditorApp {
   void quit_on_signal(int signal);
   void request_quit();
 
-  float scene_size() const { return document_ ? 2.0f * engine::Bounds::of(document_->rest().positions).radius() : 1.0f; }
+  // The rest shape's diameter: measured once per rest shape (several widgets ask every frame, and
+  // at 1.6 million vertices each measure took 4 ms).
+  float scene_size() const {
+    if (!document_) return 1.0f;
+    const Mesh* rest = &document_->rest();
+    if (rest != scene_size_of_) {
+      scene_size_ = 2.0f * engine::Bounds::of(rest->positions).radius();
+      scene_size_of_ = rest;
+    }
+    return scene_size_;
+  }
+  mutable const Mesh* scene_size_of_ = nullptr;
+  mutable float scene_size_ = 1.0f;
 
   // ---- input ------------------------------------------------------------------------------------------
 

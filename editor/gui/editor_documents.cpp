@@ -215,13 +215,16 @@ void EditorApp::install(Loaded loaded_document) {
   const Mesh& rest = loaded->document->rest();
   exchange_ = std::make_unique<engine::GeometryExchange>(static_cast<std::size_t>(rest.vertex_count()));
   publisher_ = std::make_unique<engine::GeometryPublisher>(*exchange_, rest.triangles);
-  loaded->document->set_publish([this](const Eigen::MatrixXd& positions, std::uint64_t request, bool refined) {
-    // A refinement iteration settles the shape the user keeps: always whole.
-    const bool proxy = !refined && proxy_publications_.load(std::memory_order_relaxed);
+  loaded->document->set_publish([this](const Eigen::MatrixXd& positions, std::uint64_t request, Document::Answer answer) {
+    // A partial answer holds the proxy's vertices alone; a refinement iteration settles the shape
+    // the user keeps: always whole.
+    const bool proxy = answer == Document::Answer::Partial ||
+                       (answer == Document::Answer::Whole && proxy_publications_.load(std::memory_order_relaxed));
     publisher_->publish(positions, request, proxy ? engine::GeometryPublisher::Detail::Proxy : engine::GeometryPublisher::Detail::Whole);
     glfwPostEmptyEvent();
   });
   document_ = std::move(loaded->document);
+  scene_size_of_ = nullptr;  // another mesh, perhaps where the last one was in memory
   publisher_->publish(document_->rest().positions, 0);
   mesh_name_ = loaded->session.mesh;
   const auto bounds = engine::Bounds::of(document_->rest().positions);
@@ -273,6 +276,12 @@ void EditorApp::finish_proxy() {
   }
   renderer_->set_proxy(*outcome.result);
   publisher_->set_proxy(*outcome.result);
+  {
+    auto vertices = std::make_shared<std::vector<int>>(outcome.result->data(), outcome.result->data() + outcome.result->size());
+    std::sort(vertices->begin(), vertices->end());
+    vertices->erase(std::unique(vertices->begin(), vertices->end()), vertices->end());
+    document_->set_partial_vertices(std::move(vertices));
+  }
   proxy_triangle_count_ = outcome.result->rows();
   motion_detail_.enable(renderer_->has_proxy());
   print_json_line({{"event", "proxy"}, {"triangles", outcome.result->rows()}});
@@ -453,7 +462,9 @@ void EditorApp::publish_whole_after_drag() {
 std::uint64_t EditorApp::post_request(std::span<const Clock::time_point> events) {
   if (!document_) return 0;
   note_publication_detail();
-  const std::uint64_t request = document_->request_update();
+  // While the frames draw the proxy, the answer need hold only its vertices (on a base: the
+  // rest are rebuilt once the drag rests).
+  const std::uint64_t request = document_->request_update(proxy_publications_.load(std::memory_order_relaxed));
   if (request == 0) return 0;
   statistics_.note_request(request, events);
   return request;

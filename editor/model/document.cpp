@@ -58,16 +58,27 @@ Document::~Document() {
   if (build_) build_->task.abandon();
 }
 
+const Document::PaintedLists& Document::painted() const {
+  if (painted_.version == painted_version_) return painted_;
+  PaintedLists lists;
+  lists.handles.resize(handles_.size());
+  for (std::size_t v = 0; v < labels_.size(); ++v) {
+    if (roi_[v]) lists.region_of_interest.push_back(static_cast<int>(v));
+    if (labels_[v] == kFixed) lists.fixed.push_back(static_cast<int>(v));
+    if (labels_[v] >= 0) lists.handles[static_cast<std::size_t>(labels_[v])].push_back(static_cast<int>(v));
+  }
+  lists.version = painted_version_;
+  painted_ = std::move(lists);
+  return painted_;
+}
+
 EditStage Document::current_stage() const {
   EditStage stage;
-  std::vector<std::vector<int>> handle_vertices(handles_.size());
-  for (std::size_t v = 0; v < labels_.size(); ++v) {
-    if (roi_[v]) stage.region_of_interest.push_back(static_cast<int>(v));
-    if (labels_[v] == kFixed) stage.fixed.push_back(static_cast<int>(v));
-    if (labels_[v] >= 0) handle_vertices[static_cast<std::size_t>(labels_[v])].push_back(static_cast<int>(v));
-  }
+  const PaintedLists& lists = painted();
+  stage.region_of_interest = lists.region_of_interest;
+  stage.fixed = lists.fixed;
   for (std::size_t h = 0; h < handles_.size(); ++h) {
-    if (!handle_vertices[h].empty()) stage.handles.push_back({std::move(handle_vertices[h]), handles_[h].transform});
+    if (!lists.handles[h].empty()) stage.handles.push_back({lists.handles[h], handles_[h].transform});
   }
   stage.refine = refine_;
   stage.refine_settle = refine_settle_;
@@ -90,6 +101,7 @@ Session Document::session() const {
 }
 
 void Document::load_stage(const EditStage& stage) {
+  ++painted_version_;
   const auto n = static_cast<std::size_t>(rest_->vertex_count());
   labels_.assign(n, kFree);
   roi_.assign(n, false);
@@ -118,6 +130,7 @@ void Document::load_stage(const EditStage& stage) {
 void Document::relabel(int vertex, int label) {
   int& current = labels_[static_cast<std::size_t>(vertex)];
   if (current == label) return;
+  ++painted_version_;
   if (current >= 0) --handle_sizes_[static_cast<std::size_t>(current)];
   if (label >= 0) ++handle_sizes_[static_cast<std::size_t>(label)];
   current = label;
@@ -142,6 +155,7 @@ void Document::paint(std::span<const int> vertices, Layer layer, bool erase) {
       const auto vertex = static_cast<std::size_t>(v);
       if (roi_[vertex] == !erase) continue;
       roi_[vertex] = !erase;
+      ++painted_version_;
       if (erase) --roi_count_;
       else ++roi_count_;
     }
@@ -217,6 +231,7 @@ void Document::set_active_handle(int handle) {
 }
 
 int Document::add_handle() {
+  ++painted_version_;
   handles_.push_back({HandleTransform::about_pivot(Eigen::Vector3d::UnitZ(), Eigen::Vector3d::Zero(), 0.0)});
   handle_sizes_.push_back(0);
   active_handle_ = static_cast<int>(handles_.size()) - 1;
@@ -225,6 +240,7 @@ int Document::add_handle() {
 
 void Document::remove_handle(int handle) {
   if (handle < 0 || handle >= static_cast<int>(handles_.size())) return;
+  ++painted_version_;
   for (auto& label : labels_) {
     if (label == handle) label = kFree;
     else if (label > handle) --label;
@@ -234,7 +250,7 @@ void Document::remove_handle(int handle) {
   active_handle_ = std::min(active_handle_, std::max(0, static_cast<int>(handles_.size()) - 1));
 }
 
-std::size_t Document::fixed_count() const { return static_cast<std::size_t>(std::count(labels_.begin(), labels_.end(), kFixed)); }
+std::size_t Document::fixed_count() const { return painted().fixed.size(); }
 
 std::size_t Document::handle_size(int handle) const { return handle_sizes_[static_cast<std::size_t>(handle)]; }
 
@@ -393,10 +409,13 @@ void Document::install_build() {
   request_base_ = last_request_;
   const std::uint64_t base = request_base_;
   pipeline_ = std::make_unique<UpdatePipeline>(*deformer_, [this, base](const UpdatePipeline::Result& result) {
-    if (result.refinement.iterations == 0) last_update_ms_ = result.update_ms;
+    if (result.refinement.iterations == 0 && !result.completion) last_update_ms_ = result.update_ms;
     // The positions go out first: once the view below says a refinement has finished (settled()),
     // its positions are the ones published.
-    if (publish_) publish_(result.positions, base + result.request, result.refinement.iterations > 0);
+    if (publish_) {
+      publish_(result.positions, base + result.request,
+               result.partial ? Answer::Partial : result.refinement.iterations > 0 ? Answer::Refined : Answer::Whole);
+    }
     {
       // The deformer's timings are its last update's or iteration's: this thread just ran it.
       std::lock_guard lock(refinement_mutex_);
@@ -407,7 +426,9 @@ void Document::install_build() {
                                                               result.refinement.iterations >= deformer_->refinement_options().max_iterations);
       refinement_digest_ = refinement_finished_ ? positions_digest(result.positions) : std::string();
       constexpr std::size_t kKept = 512;
-      if (result.refinement.iterations == 0) {
+      if (result.completion) {
+        // The rest of a partial answer's vertices: no update of its own to time.
+      } else if (result.refinement.iterations == 0) {
         if (update_timings_.size() < kKept) update_timings_.push_back(deformer_->last_update());
       } else if (refinement_timings_.size() < kKept) {
         refinement_timings_.push_back(deformer_->refinement_timings());
@@ -446,14 +467,14 @@ bool Document::drags_previous_selection() const {
   return previous_selection_answers(stage) && !same_constraints(deformer_constraints_, stage.constraints());
 }
 
-std::uint64_t Document::request_update() {
+std::uint64_t Document::request_update(bool partial) {
   if (!pipeline_ || !deformer_) return 0;
   // Built once: the drag calls this for every move. While a new selection is being factored the
   // drag goes on with the last one (same rest shape, as many non-empty handles); installing the
   // new set-up solves the current poses again.
   const EditStage stage = current_stage();
   if (!same_constraints(deformer_constraints_, stage.constraints()) && !previous_selection_answers(stage)) return 0;
-  last_request_ = request_base_ + pipeline_->submit(stage.transforms());
+  last_request_ = request_base_ + pipeline_->submit(stage.transforms(), partial ? partial_vertices_ : nullptr);
   submitted_ = stage;
   return last_request_;
 }

@@ -27,10 +27,12 @@ enum class Layer { RegionOfInterest, Fixed, Handle };
 
 class Document {
  public:
+  // What a publication holds: the paper's update of every vertex; of the partial vertices only
+  // (request_update(true): the others hold an earlier answer); or a refinement iteration.
+  enum class Answer { Whole, Partial, Refined };
   // Called on a worker thread with each finished update's positions, the number that
-  // request_update() returned for it, and whether they are a refinement iteration's (the shape
-  // settling) rather than the paper's update.
-  using Publish = std::function<void(const Eigen::MatrixXd& positions, std::uint64_t request, bool refined)>;
+  // request_update() returned for it, and what they are.
+  using Publish = std::function<void(const Eigen::MatrixXd& positions, std::uint64_t request, Answer answer)>;
 
   static constexpr int kFree = -1;
   static constexpr int kFixed = -2;
@@ -151,7 +153,9 @@ class Document {
   // Posts the current poses to the pipeline (newest wins); returns the request number (0 when
   // nothing can be solved yet). While a new selection is set up, the poses are solved with the
   // previous one (drags_previous_selection()).
-  std::uint64_t request_update();
+  std::uint64_t request_update(bool partial = false);
+  // The vertices a partial request needs (the proxy's, ascending); null: none, every request whole.
+  void set_partial_vertices(std::shared_ptr<const std::vector<int>> vertices) { partial_vertices_ = std::move(vertices); }
   // Whether a set-up for a changed selection is running while the previous selection's solver
   // (same rest shape and number of handles) still answers the drag.
   bool drags_previous_selection() const;
@@ -200,6 +204,16 @@ class Document {
   std::size_t roi_count_ = 0;
   std::vector<Handle> handles_;
   std::vector<std::size_t> handle_sizes_;
+  // The vertex lists of the painted sets, built again only after a change (current_stage() runs
+  // every frame and for every request: at 1.6 million vertices a build took 5 ms).
+  struct PaintedLists {
+    std::uint64_t version = ~std::uint64_t{0};
+    std::vector<int> region_of_interest, fixed;
+    std::vector<std::vector<int>> handles;  // by handle, empty ones too
+  };
+  std::uint64_t painted_version_ = 0;  // bumped by every change of labels_, roi_ or the handles
+  mutable PaintedLists painted_;
+  const PaintedLists& painted() const;
   int active_handle_ = 0;
 
   DeformerOptions options_;
@@ -230,6 +244,7 @@ class Document {
   std::atomic<std::uint64_t> last_published_{0};
   std::uint64_t request_base_ = 0;  // requests of earlier pipelines, so that numbers keep growing
   std::uint64_t last_request_ = 0;
+  std::shared_ptr<const std::vector<int>> partial_vertices_;
 
   std::vector<Snapshot> history_;
   std::size_t history_index_ = 0;
