@@ -323,6 +323,35 @@ class EditorGui : public ::testing::Test {
     std::this_thread::sleep_for(700ms);  // the last solve lands
   }
 
+  // The offscreen renderer's picture of a saved result with its stage's field and painted classes,
+  // framed as the editor frames it right of its panel: what the window shows once settled.
+  engine::Pixels offscreen_picture(const engine::VulkanContext& context, const Mesh& result, const cli::EditStage& stage) const {
+    engine::Scene scene;
+    scene.positions = result.positions;
+    scene.triangles = rest.triangles;
+    scene.rest_bounds = engine::Bounds::of(rest.positions);
+    const Deformer deformer(rest, stage.constraints());
+    scene.field = deformer.field();
+    scene.classes.assign(static_cast<std::size_t>(rest.vertex_count()), HD_CLASS_FREE);
+    for (const int v : stage.fixed) scene.classes[static_cast<std::size_t>(v)] = engine::fixed_class();
+    for (std::size_t h = 0; h < stage.handles.size(); ++h) {
+      for (const int v : stage.handles[h].vertices) scene.classes[static_cast<std::size_t>(v)] = engine::handle_class(h);
+    }
+    engine::Shot shot;
+    shot.width = kWidth;
+    shot.height = kHeight;
+    shot.samples = 1;  // the editor's on a CPU device
+    shot.camera = view.camera;
+    return engine::render_offscreen(context, scene, shot);
+  }
+
+  // F12: the window's picture, where the editor says it wrote it.
+  json take_screenshot(Editor& editor) {
+    const auto before = editor.event_count();
+    press("F12");
+    return editor.wait_for("screenshot", 60s, before);
+  }
+
   json save(Editor& editor) {
     const auto before = editor.event_count();
     press("ctrl+s");

@@ -25,9 +25,7 @@ TEST_F(EditorGui, PaintDragAndSaveGiveTheBatchReplayAndTheScreenShowsTheOffscree
   editor.wait_for("refined", 60s, drag_events);
   const json saved = save(editor);
   ASSERT_FALSE(saved.is_null());
-  const auto screenshot_events = editor.event_count();
-  press("F12");
-  const json screenshot = editor.wait_for("screenshot", 60s, screenshot_events);
+  const json screenshot = take_screenshot(editor);
   quit(editor);
 
   // The session holds what was painted, where it was painted.
@@ -55,22 +53,8 @@ TEST_F(EditorGui, PaintDragAndSaveGiveTheBatchReplayAndTheScreenShowsTheOffscree
   for (const int v : session.current.fixed) EXPECT_LE((result.positions.row(v) - rest.positions.row(v)).norm(), 1e-9 * diagonal);
 
   // The window's picture of that state equals the offscreen renderer's.
-  engine::Scene scene;
-  scene.positions = result.positions;
-  scene.triangles = rest.triangles;
-  scene.rest_bounds = engine::Bounds::of(rest.positions);
-  const Deformer deformer(rest, session.current.constraints());
-  scene.field = deformer.field();
-  scene.classes.assign(static_cast<std::size_t>(rest.vertex_count()), HD_CLASS_FREE);
-  for (const int v : session.current.fixed) scene.classes[static_cast<std::size_t>(v)] = engine::fixed_class();
-  for (const int v : handle.vertices) scene.classes[static_cast<std::size_t>(v)] = engine::handle_class(0);
-  engine::Shot shot;
-  shot.width = kWidth;
-  shot.height = kHeight;
-  shot.samples = 1;  // the editor's on a CPU device
-  shot.camera = view.camera;  // framed right of the panel, as the editor frames it
   const auto context = test::validated_context();
-  const engine::Pixels offscreen = engine::render_offscreen(*context, scene, shot);
+  const engine::Pixels offscreen = offscreen_picture(*context, result, session.current);
   const engine::Pixels window_picture = engine::read_png(screenshot["path"].get<std::string>());
   ASSERT_EQ(window_picture.width, offscreen.width);
   ASSERT_EQ(window_picture.height, offscreen.height);
@@ -101,9 +85,7 @@ TEST_F(EditorGui, ADragPublishesTheProxysVerticesAndTheShapeIsWholeAfterIt) {
   grab_and_drag(tip, {90.0f, -40.0f});
   const json saved = save(editor);
   ASSERT_FALSE(saved.is_null());
-  const auto screenshot_events = editor.event_count();
-  press("F12");
-  const json screenshot = editor.wait_for("screenshot", 60s, screenshot_events);
+  const json screenshot = take_screenshot(editor);
   quit(editor);
 
   const auto events = test::read_checked_trace(dir.file("trace.json"));
@@ -123,22 +105,9 @@ TEST_F(EditorGui, ADragPublishesTheProxysVerticesAndTheShapeIsWholeAfterIt) {
   const Mesh result = read_obj(saved["obj"].get<std::string>());
   const auto session = cli::read_session(saved["session"].get<std::string>());
   ASSERT_EQ(session.current.handles.size(), 1u);
-  engine::Scene scene;
-  scene.positions = result.positions;
-  scene.triangles = rest.triangles;
-  scene.rest_bounds = engine::Bounds::of(rest.positions);
-  const Deformer deformer(rest, session.current.constraints());
-  scene.field = deformer.field();
-  scene.classes.assign(static_cast<std::size_t>(rest.vertex_count()), HD_CLASS_FREE);
-  for (const int v : session.current.fixed) scene.classes[static_cast<std::size_t>(v)] = engine::fixed_class();
-  for (const int v : session.current.handles[0].vertices) scene.classes[static_cast<std::size_t>(v)] = engine::handle_class(0);
-  engine::Shot shot;
-  shot.width = kWidth;
-  shot.height = kHeight;
-  shot.samples = 1;
-  shot.camera = view.camera;
   const auto context = test::validated_context();
-  const auto difference = test::compare_images(engine::read_png(screenshot["path"].get<std::string>()), engine::render_offscreen(*context, scene, shot), 24);
+  const auto difference =
+      test::compare_images(engine::read_png(screenshot["path"].get<std::string>()), offscreen_picture(*context, result, session.current), 24);
   EXPECT_LE(difference.differing_fraction, 0.005) << "largest channel difference " << difference.largest;
 }
 

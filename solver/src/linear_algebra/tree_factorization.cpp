@@ -151,23 +151,19 @@ TopChains top_chains(std::span<const int> parent, std::span<const double> work, 
   }
   const auto count = static_cast<std::size_t>(chains.count());
   std::vector<int> chain_parent(count, -1);
-  chains.child_start.assign(count + 1, 0);
   for (std::size_t c = 0; c < count; ++c) {
     const int last = chains.nodes[static_cast<std::size_t>(chains.node_start[c + 1]) - 1];
     if (const int p = parent[static_cast<std::size_t>(last)]; p >= 0) {
       chain_parent[c] = chain_of[static_cast<std::size_t>(p)];
-      ++chains.child_start[static_cast<std::size_t>(chain_parent[c]) + 1];
       chains.work[static_cast<std::size_t>(chain_parent[c])] += chains.work[c];  // children come first
     } else {
       chains.roots.push_back(static_cast<int>(c));
     }
   }
-  for (std::size_t c = 0; c < count; ++c) chains.child_start[c + 1] += chains.child_start[c];
-  chains.children.resize(static_cast<std::size_t>(chains.child_start[count]));
-  std::vector<int> fill(chains.child_start.begin(), chains.child_start.end() - 1);
-  for (std::size_t c = 0; c < count; ++c) {
-    if (const int p = chain_parent[c]; p >= 0) chains.children[static_cast<std::size_t>(fill[static_cast<std::size_t>(p)]++)] = static_cast<int>(c);
-  }
+  // The chains form a tree of their own, numbered children first.
+  Children tree = children_of(chain_parent);
+  chains.child_start = std::move(tree.child_start);
+  chains.children = std::move(tree.children);
   return chains;
 }
 
