@@ -3,6 +3,7 @@
 #include <chrono>
 #include <memory>
 #include <mutex>
+#include <string>
 #include <thread>
 
 #include "hdeform/deformer.h"
@@ -154,20 +155,23 @@ TEST(UpdatePipeline, WithADelayRefinementWaitsForTheInputToRest) {
   EXPECT_TRUE(refined);
 }
 
-// The editor's drag on a base asks for the proxy's vertices only: each answer is published as
-// partial, and once the input rests the rest of the vertices follow, published whole, before the
-// refinement; what the pipeline settles on is what whole requests give, to the last bit.
+// The editor's drag asks for the proxy's vertices only: each answer is published as partial
+// (solved on a base, only those are rebuilt), and once the input rests the rest follow,
+// published whole, before the refinement; an exact solve, which wrote every vertex already, is
+// published whole the same way. What the pipeline settles on is what whole requests give, to
+// the last bit.
 TEST(UpdatePipeline, APartialAnswerIsMadeWholeOnceTheInputRests) {
   auto shape = make_shape(ShapeKind::Cactus, 64);
-  DeformerOptions options;
-  options.resolution = Resolution::Multiresolution;
-  options.base_vertices = shape.mesh.vertex_count() / 4;
-  options.prepare_refinement = true;
   auto some = std::make_shared<std::vector<int>>();
   for (int v = 0; v < shape.mesh.vertex_count(); v += 5) some->push_back(v);
   using Clock = std::chrono::steady_clock;
+  for (const auto resolution : {Resolution::Multiresolution, Resolution::Exact})
   for (const bool refine : {false, true}) {
-    SCOPED_TRACE(refine ? "refinement on" : "refinement off");
+    SCOPED_TRACE(std::string(to_string(resolution)) + (refine ? ", refinement on" : ", refinement off"));
+    DeformerOptions options;
+    options.resolution = resolution;
+    options.base_vertices = shape.mesh.vertex_count() / 4;
+    options.prepare_refinement = true;
     Deformer deformer(shape.mesh, shape.demo_constraints, options), reference(shape.mesh, shape.demo_constraints, options);
     struct Seen {
       bool partial, completion;

@@ -337,8 +337,6 @@ void EditorApp::step() {
       refinement_settled_ = false;
     }
     finish_pending_save();
-    note_publication_detail();
-    publish_whole_after_drag();
     if (document_->solver_state() == Document::SolverState::Building && build_started_ == Clock::time_point{}) build_started_ = Clock::now();
     if (document_->solver_state() != Document::SolverState::Building) build_started_ = {};
   }

@@ -14,7 +14,6 @@
 #include <backends/imgui_impl_vulkan.h>
 #include <algorithm>
 #include <array>
-#include <atomic>
 #include <csignal>
 #include <cctype>
 #include <chrono>
@@ -326,12 +325,6 @@ class EditorApp {
 
   // Without a solver (no handle) nothing publishes: show the rest shape.
   void publish_rest_if_needed();
-  // While a handle is dragged and frames draw the proxy anyway, the solver publishes the proxy's
-  // vertices alone (GeometryPublisher::Detail::Proxy): at 3.3M triangles a few thousand vertices
-  // and their normals instead of 1.6 million. Read on the solver thread.
-  std::atomic<bool> proxy_publications_{false};
-  void note_publication_detail();
-  void publish_whole_after_drag();
 
   // Posts the current poses, answering the inputs that led to them (their times, for latency).
   std::uint64_t post_request(std::span<const Clock::time_point> events);

@@ -216,11 +216,9 @@ void EditorApp::install(Loaded loaded_document) {
   exchange_ = std::make_unique<engine::GeometryExchange>(static_cast<std::size_t>(rest.vertex_count()));
   publisher_ = std::make_unique<engine::GeometryPublisher>(*exchange_, rest.triangles);
   loaded->document->set_publish([this](const Eigen::MatrixXd& positions, std::uint64_t request, Document::Answer answer) {
-    // A partial answer holds the proxy's vertices alone; a refinement iteration settles the shape
-    // the user keeps: always whole.
-    const bool proxy = answer == Document::Answer::Partial ||
-                       (answer == Document::Answer::Whole && proxy_publications_.load(std::memory_order_relaxed));
-    publisher_->publish(positions, request, proxy ? engine::GeometryPublisher::Detail::Proxy : engine::GeometryPublisher::Detail::Whole);
+    // A partial answer is sure only on the proxy's vertices: those alone are handed over.
+    publisher_->publish(positions, request,
+                        answer == Document::Answer::Partial ? engine::GeometryPublisher::Detail::Proxy : engine::GeometryPublisher::Detail::Whole);
     glfwPostEmptyEvent();
   });
   document_ = std::move(loaded->document);
@@ -446,25 +444,12 @@ void EditorApp::publish_rest_if_needed() {
   if (document_->solver_state() == Document::SolverState::NoHandle || document_->handle_count() == 0) publisher_->publish(document_->rest().positions, 0);
 }
 
-void EditorApp::note_publication_detail() {
-  const bool handle_dragged = (dragging_ && !is_paint_tool(tools_.tool)) || benchmark_ != nullptr;
-  proxy_publications_.store(motion_detail_.enabled() && handle_dragged, std::memory_order_relaxed);
-}
-
-void EditorApp::publish_whole_after_drag() {
-  // The drag's last answer went out as the proxy's vertices alone; once nothing else is on its
-  // way, the same poses are solved again and published whole (picking and painting wait for it).
-  if (!document_ || !publisher_ || proxy_publications_.load(std::memory_order_relaxed) || !publisher_->newest_is_proxy_only()) return;
-  if (document_->last_published_request() != document_->last_request()) return;
-  document_->request_update();
-}
-
 std::uint64_t EditorApp::post_request(std::span<const Clock::time_point> events) {
   if (!document_) return 0;
-  note_publication_detail();
-  // While the frames draw the proxy, the answer need hold only its vertices (on a base: the
-  // rest are rebuilt once the drag rests).
-  const std::uint64_t request = document_->request_update(proxy_publications_.load(std::memory_order_relaxed));
+  // While a handle is dragged the frames draw the proxy: the answer need hold only its vertices
+  // (the pipeline publishes the whole shape once the input rests).
+  const bool handle_dragged = (dragging_ && !is_paint_tool(tools_.tool)) || benchmark_ != nullptr;
+  const std::uint64_t request = document_->request_update(motion_detail_.enabled() && handle_dragged);
   if (request == 0) return 0;
   statistics_.note_request(request, events);
   return request;

@@ -69,7 +69,7 @@ Eigen::ParametrizedLine<float, 3> EditorApp::cursor_ray(const ImVec2& cursor) co
 const engine::GeometrySnapshot* EditorApp::shown_geometry() {
   const engine::GeometrySnapshot* shown = exchange_ ? exchange_->acquire() : nullptr;
   // A drag's answer holding the proxy's vertices alone is not the shape to pick on: nothing is,
-  // until the whole one follows (publish_whole_after_drag).
+  // until the whole one follows (the pipeline publishes it once the input rests).
   if (shown != nullptr && shown->only_vertices) return nullptr;
   picker_.follow(document_->rest().triangles, shown);
   return shown;

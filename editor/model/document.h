@@ -160,9 +160,6 @@ class Document {
   // (same rest shape and number of handles) still answers the drag.
   bool drags_previous_selection() const;
   std::uint64_t last_published_request() const { return last_published_.load(); }
-  // The newest request posted (request_update); last_published_request() reaches it once its
-  // answer is out.
-  std::uint64_t last_request() const { return last_request_; }
   // The positions for the current poses: the pipeline's final answer to them, the shape the
   // screen shows once settled, which is exactly what `hdeform edit --session` computes (waits for
   // a pending rebuild, the update in flight and the refinement until its stop).

@@ -126,7 +126,6 @@ void GeometryPublisher::publish(const Eigen::MatrixXd& positions, std::uint64_t 
     normals_.write(positions, back);
   }
   back.tag = tag;
-  newest_proxy_only_.store(back.only_vertices != nullptr, std::memory_order_release);
   exchange_.publish();
 }
 

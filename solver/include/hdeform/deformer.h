@@ -225,6 +225,9 @@ class Deformer {
   void set_up_on_base(const ProgressCallback& progress);
   /// Fixed vertices at rest, handle vertices moved by their handle's transform.
   void write_constrained(std::span<const HandleTransform> transforms, Eigen::MatrixXd& positions) const;
+  // deform(), and deform_vertices() with `only_vertices`: on a base, only those rows are rebuilt.
+  void update(std::span<const HandleTransform> transforms, Eigen::MatrixXd& positions, RefinementStart start,
+              const std::span<const int>* only_vertices);
   struct UpdateArena;
   struct UpdateGraph;
   void prepare_update_triangles();
@@ -260,7 +263,6 @@ class Deformer {
   std::unique_ptr<Deformer> base_;
   Eigen::MatrixXd base_positions_;
   DetailEncoding::Workspace reconstruction_workspace_;
-  std::optional<std::span<const int>> only_vertices_;  // deform_vertices(): the rows deform() rebuilds
 };
 
 }  // namespace hdeform

@@ -14,10 +14,11 @@
 /// each, until they converge; a new request takes over after the iteration in flight.
 ///
 /// A request may ask for some vertices only (the editor's drag, drawing a proxy over them): on a
-/// base (multiresolution) only they are rebuilt and published, marked partial. Once no request
-/// waits and the refinement's delay has passed, the thread rebuilds every vertex and publishes
-/// them before anything else; wait_idle() and settled_positions() wait for that too, so what they
-/// give is always whole.
+/// base (multiresolution) only they are rebuilt, and the answer is published marked partial.
+/// Once no request waits and the refinement's delay has passed, the thread rebuilds every vertex
+/// (Deformer::complete; nothing to do for an exact solve) and publishes the answer whole before
+/// anything else; wait_idle() and settled_positions() wait for that too, so what they give is
+/// always whole.
 #include <Eigen/Core>
 #include <chrono>
 #include <condition_variable>
@@ -45,8 +46,8 @@ class UpdatePipeline {
     double update_ms;       ///< the paper's update, or the refinement iteration
     /// Refinement iterations in these positions (0: the paper's update) and where they stand.
     RefinementStatus refinement;
-    /// Only the requested vertices hold this answer (submit()'s `only_vertices`); the others an
-    /// earlier one's.
+    /// An answer to a request for some vertices (submit()'s `only_vertices`): only those are sure
+    /// to hold it (on a base, the others hold an earlier answer's).
     bool partial = false;
     /// The rows a partial answer left, rebuilt: the same request's update made whole.
     bool completion = false;

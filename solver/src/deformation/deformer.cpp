@@ -389,6 +389,11 @@ std::vector<std::string> Deformer::warnings() const {
 }
 
 void Deformer::deform(std::span<const HandleTransform> transforms, Eigen::MatrixXd& positions, RefinementStart start) {
+  update(transforms, positions, start, nullptr);
+}
+
+void Deformer::update(std::span<const HandleTransform> transforms, Eigen::MatrixXd& positions, RefinementStart start,
+                      const std::span<const int>* only_vertices) {
   if (transforms.size() != handle_count()) {
     throw std::invalid_argument("deform: " + std::to_string(transforms.size()) + " transforms for " +
                                 std::to_string(handle_count()) + " handles");
@@ -401,7 +406,7 @@ void Deformer::deform(std::span<const HandleTransform> transforms, Eigen::Matrix
   if (base_) {
     base_->deform(transforms, base_positions_, start);
     const auto detail_began = Clock::now();
-    if (only_vertices_) operators_->multiresolution->encoding.reconstruct(base_positions_, positions, reconstruction_workspace_, *only_vertices_);
+    if (only_vertices) operators_->multiresolution->encoding.reconstruct(base_positions_, positions, reconstruction_workspace_, *only_vertices);
     else operators_->multiresolution->encoding.reconstruct(base_positions_, positions, reconstruction_workspace_);
     write_constrained(transforms, positions);
     last_update_ = base_->last_update();
@@ -487,14 +492,7 @@ bool Deformer::deform_vertices(std::span<const HandleTransform> transforms, Eige
   if (positions.rows() != rest_.vertex_count() || positions.cols() != 3) {
     throw std::invalid_argument("deform_vertices: positions must be the " + std::to_string(rest_.vertex_count()) + "×3 result of an earlier update");
   }
-  only_vertices_ = vertices;
-  try {
-    deform(transforms, positions, start);
-  } catch (...) {
-    only_vertices_.reset();
-    throw;
-  }
-  only_vertices_.reset();
+  update(transforms, positions, start, &vertices);
   return false;
 }
 

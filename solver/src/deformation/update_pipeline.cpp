@@ -85,8 +85,14 @@ void UpdatePipeline::run() {
       bool whole = true, completion = false;
       if (update) {
         const trace::Scope traced("request", "pipeline", static_cast<std::int64_t>(request));
-        if (current_only_) whole = deformer_.deform_vertices(current_, positions_, *current_only_);
-        else deformer_.deform(current_, positions_);
+        // An answer for some vertices is published as that, even where the deformer wrote every
+        // row (an exact solve): the whole one follows in the same way for every deformer.
+        if (current_only_) {
+          deformer_.deform_vertices(current_, positions_, *current_only_);
+          whole = false;
+        } else {
+          deformer_.deform(current_, positions_);
+        }
       } else if (!whole_) {
         const trace::Scope traced("the rest of the vertices", "pipeline", static_cast<std::int64_t>(request));
         deformer_.complete(positions_);

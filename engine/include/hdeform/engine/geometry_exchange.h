@@ -85,8 +85,8 @@ class VertexNormals {
 };
 
 /// What the solver thread calls after each update: positions → back buffer with normals → publish.
-/// Publications may come from several threads (the solver's, and the window's when it republishes);
-/// they are taken one at a time.
+/// Publications may come from several threads (the solver's, and the window's for the rest shape);
+/// they are taken one at a time, and set_proxy() may come from any thread.
 class GeometryPublisher {
  public:
   /// Writes into `exchange` the geometry of a mesh with these triangles.
@@ -99,15 +99,12 @@ class GeometryPublisher {
   void set_proxy(const Eigen::MatrixXi& proxy_triangles);
   /// Fills the back buffer with `positions` and their normals, labels it `tag`, and publishes it.
   void publish(const Eigen::MatrixXd& positions, std::uint64_t tag = 0, Detail detail = Detail::Whole);
-  /// Whether the newest publication holds only the proxy's vertices.
-  bool newest_is_proxy_only() const { return newest_proxy_only_.load(std::memory_order_acquire); }
 
  private:
   GeometryExchange& exchange_;
   std::mutex mutex_;  // one publication at a time; guards proxy_ too
   VertexNormals normals_;
   std::shared_ptr<const VertexNormals::Subset> proxy_;
-  std::atomic<bool> newest_proxy_only_{false};
 };
 
 }  // namespace hdeform::engine
