@@ -95,8 +95,8 @@ class DetailEncoding {
 
    private:
     friend class DetailEncoding;
-    struct Scales;
-    std::unique_ptr<Scales> scales_;
+    struct Maps;
+    std::unique_ptr<Maps> maps_;
   };
   /// A workspace sized for this encoding's base.
   Workspace workspace() const;
@@ -122,11 +122,11 @@ class DetailEncoding {
   double largest_detail() const { return largest_detail_; }
 
  private:
-  // The rebuild of `count` fine vertices, the i-th being vertex_at(i); `resize`: fine_positions
-  // takes the fine size first (a whole rebuild).
+  // The rebuild of `count` fine vertices, the i-th being vertex_at(i); `whole`: every vertex in
+  // order, fine_positions taking the fine size first.
   template <class Vertex>
   void rebuild(const Eigen::MatrixXd& base_positions, Eigen::MatrixXd& fine_positions, Workspace& workspace, Eigen::Index count,
-               const Vertex& vertex_at, bool resize) const;
+               const Vertex& vertex_at, bool whole) const;
 
   Eigen::Index base_count_ = 0;
   Eigen::MatrixXi base_triangles_;

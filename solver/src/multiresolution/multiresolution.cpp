@@ -22,25 +22,18 @@ namespace hdeform {
 namespace {
 
 constexpr std::size_t kVertexGrain = 2048;
+// How far ahead a whole rebuild asks for the memory it will use: triangles (their corners and
+// maps) and fine vertices (their rows). See DetailEncoding::rebuild.
+constexpr Eigen::Index kMapAhead = 16, kRowAhead = 128;
 
 // A triangle's frame, from its first edge e = b − a and normal n = e × (c − a): columns e/|e|,
-// (n × e)/(|n| |e|), n/|n|. The reciprocal lengths are a triangle's (DetailEncoding::Workspace:
-// once per base triangle per rebuild), the rest is each fine vertex's, without a square root or a
-// division. A degenerate triangle's zero column stays zero.
-struct FrameScales {
-  double edge = 0.0, normal = 0.0;  // 1/|e|, 1/|n|; 0 for a zero length
-};
-[[gnu::always_inline]] inline FrameScales frame_scales(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c) {
-  const Eigen::Vector3d edge = b - a;
-  const double edge_length = edge.norm(), normal_length = edge.cross(c - a).norm();
-  return {edge_length > 0.0 ? 1.0 / edge_length : 0.0, normal_length > 0.0 ? 1.0 / normal_length : 0.0};
-}
-[[gnu::always_inline]] inline Eigen::Matrix3d triangle_frame(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c,
-                                                             const FrameScales& scales) {
-  const Eigen::Vector3d edge = b - a;
+// (n × e)/(|n| |e|), n/|n|. A degenerate triangle's zero column stays zero.
+[[gnu::always_inline]] inline Eigen::Matrix3d triangle_frame(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c) {
+  const Eigen::Vector3d edge = b - a, normal = edge.cross(c - a);
+  const double edge_length = edge.norm(), normal_length = normal.norm();
   Eigen::Matrix3d frame;
-  frame.col(0) = edge * scales.edge;
-  frame.col(2) = edge.cross(c - a) * scales.normal;
+  frame.col(0) = edge * (edge_length > 0.0 ? 1.0 / edge_length : 0.0);
+  frame.col(2) = normal * (normal_length > 0.0 ? 1.0 / normal_length : 0.0);
   frame.col(1) = frame.col(2).cross(frame.col(0));
   return frame;
 }
@@ -71,13 +64,25 @@ Eigen::Vector2d closest_point_weights(const Eigen::Vector3d& p, const Eigen::Vec
   return {vb * denominator, vc * denominator};
 }
 
-// The foot and the frame of a fine vertex on base triangle (a, b, c) with weights w of b and c.
-// One function for encoding, the rest reconstruction and every later one: the same arithmetic, so
-// the rest base reproduces its own reconstruction bit for bit.
-[[gnu::always_inline]] inline Eigen::Vector3d reconstructed(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c,
-                                                             const FrameScales& scales, double wb, double wc, const Eigen::Vector3d& detail) {
-  const Eigen::Vector3d foot = a + wb * (b - a) + wc * (c - a);
-  return foot + triangle_frame(a, b, c, scales) * detail;
+// What a fine vertex's position takes from its base triangle (a, b, c): the corner a, the edges
+// to b and c, and the frame. A whole rebuild makes it once per base triangle
+// (DetailEncoding::Workspace), so that each of the five or so fine vertices on a triangle costs
+// only a weighted sum: the frame's square roots, divisions and cross products per vertex were
+// most of a rebuild's time.
+struct FootMap {
+  Eigen::Vector3d origin, to_b, to_c;
+  Eigen::Matrix3d frame;
+};
+[[gnu::always_inline]] inline FootMap foot_map(const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c) {
+  return {a, b - a, c - a, triangle_frame(a, b, c)};
+}
+
+// A fine vertex with weights wb, wc of b and c and its detail. One function for encoding, the
+// rest reconstruction and every later one: the same arithmetic, so the rest base reproduces its
+// own reconstruction bit for bit.
+[[gnu::always_inline]] inline Eigen::Vector3d reconstructed(const FootMap& map, double wb, double wc, const Eigen::Vector3d& detail) {
+  const Eigen::Vector3d foot = map.origin + wb * map.to_b + wc * map.to_c;
+  return foot + map.frame * detail;
 }
 
 // Vertex → triangles, compressed rows.
@@ -289,9 +294,9 @@ DetailEncoding::DetailEncoding(const Mesh& fine, const BaseMesh& base)
       const Eigen::Vector3d foot = a + best_weights[0] * (b - a) + best_weights[1] * (c - a);
       foot_triangle_[v] = best;
       barycentric_.row(vertex) = best_weights.transpose();
-      const FrameScales scales = frame_scales(a, b, c);
-      detail_.row(vertex) = (triangle_frame(a, b, c, scales).transpose() * (p - foot)).transpose();
-      rest_reconstruction.row(vertex) = reconstructed(a, b, c, scales, best_weights[0], best_weights[1], detail_.row(vertex).transpose()).transpose();
+      const FootMap map = foot_map(a, b, c);
+      detail_.row(vertex) = (map.frame.transpose() * (p - foot)).transpose();
+      rest_reconstruction.row(vertex) = reconstructed(map, best_weights[0], best_weights[1], detail_.row(vertex).transpose()).transpose();
     }
   });
   for (std::size_t v = 0; v < n; ++v) largest_detail_ = std::max(largest_detail_, detail_.row(static_cast<Eigen::Index>(v)).norm());
@@ -315,6 +320,25 @@ DetailEncoding::DetailEncoding(const Mesh& fine, const BaseMesh& base)
       }
     }
   }
+
+  // The encoding's own triangle order: by first use in fine vertex order, so that a rebuild reads
+  // the foot maps nearly in sequence rather than with a cache miss per vertex (the base's order
+  // follows its collapses, not the fine mesh). Only foot_corners() shows a triangle, by corners.
+  std::vector<int> renumbered(static_cast<std::size_t>(base_triangles_.rows()), -1);
+  int next = 0;
+  for (int& t : foot_triangle_) {
+    if (t < 0) continue;
+    int& number = renumbered[static_cast<std::size_t>(t)];
+    if (number < 0) number = next++;
+    t = number;
+  }
+  Eigen::MatrixXi ordered(base_triangles_.rows(), 3);
+  for (Eigen::Index t = 0; t < base_triangles_.rows(); ++t) {
+    int& number = renumbered[static_cast<std::size_t>(t)];
+    if (number < 0) number = next++;
+    ordered.row(number) = base_triangles_.row(t);
+  }
+  base_triangles_ = std::move(ordered);
 }
 
 DetailEncoding::Workspace::Workspace() = default;
@@ -322,14 +346,14 @@ DetailEncoding::Workspace::~Workspace() = default;
 DetailEncoding::Workspace::Workspace(Workspace&&) noexcept = default;
 DetailEncoding::Workspace& DetailEncoding::Workspace::operator=(Workspace&&) noexcept = default;
 
-struct DetailEncoding::Workspace::Scales {
-  std::vector<FrameScales> of_triangle;
+struct DetailEncoding::Workspace::Maps {
+  std::vector<FootMap> of_triangle;
 };
 
 DetailEncoding::Workspace DetailEncoding::workspace() const {
   Workspace workspace;
-  workspace.scales_ = std::make_unique<Workspace::Scales>();
-  workspace.scales_->of_triangle.resize(static_cast<std::size_t>(base_triangles_.rows()));
+  workspace.maps_ = std::make_unique<Workspace::Maps>();
+  workspace.maps_->of_triangle.resize(static_cast<std::size_t>(base_triangles_.rows()));
   return workspace;
 }
 
@@ -357,44 +381,85 @@ void DetailEncoding::reconstruct(const Eigen::MatrixXd& base_positions, Eigen::M
 
 template <class Vertex>
 void DetailEncoding::rebuild(const Eigen::MatrixXd& base_positions, Eigen::MatrixXd& fine_positions, Workspace& workspace, Eigen::Index count,
-                             const Vertex& vertex_at, bool resize) const {
+                             const Vertex& vertex_at, bool whole) const {
   if (base_positions.rows() != base_count_ || base_positions.cols() != 3) {
     throw std::invalid_argument("DetailEncoding::reconstruct: the base positions are " + std::to_string(base_positions.rows()) + "×" +
                                 std::to_string(base_positions.cols()) + " for a base of " + std::to_string(base_count_) + " vertices");
   }
-  if (!workspace.scales_ || workspace.scales_->of_triangle.size() != static_cast<std::size_t>(base_triangles_.rows())) {
+  if (!workspace.maps_ || workspace.maps_->of_triangle.size() != static_cast<std::size_t>(base_triangles_.rows())) {
     throw std::invalid_argument("DetailEncoding::reconstruct: the workspace is sized for another base (DetailEncoding::workspace() makes one)");
   }
-  if (resize) fine_positions.resize(fine_count(), 3);
-  const trace::Scope traced(resize ? "fine mesh from the base" : "fine mesh from the base, some vertices", "update");
+  if (whole) fine_positions.resize(fine_count(), 3);
+  const trace::Scope traced(whole ? "fine mesh from the base" : "fine mesh from the base, some vertices", "update");
   auto corner = [&](Eigen::Index t, int k) -> Eigen::Vector3d { return base_positions.row(base_triangles_(t, k)).transpose(); };
-  std::vector<FrameScales>& scales = workspace.scales_->of_triangle;
-  tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, base_triangles_.rows(), kVertexGrain), [&](const auto& range) {
-    for (Eigen::Index t = range.begin(); t != range.end(); ++t) scales[static_cast<std::size_t>(t)] = frame_scales(corner(t, 0), corner(t, 1), corner(t, 2));
-  });
-  tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, count, kVertexGrain), [&](const auto& range) {
-    for (Eigen::Index i = range.begin(); i != range.end(); ++i) {
-      const Eigen::Index v = vertex_at(i);
-      const auto fine = static_cast<std::size_t>(v);
-      const int t = foot_triangle_[fine];
-      const int own = base_of_fine_[fine];
-      if (own >= 0) {
-        fine_positions.row(v) = base_positions.row(own);
-      } else if (t < 0) {
-        fine_positions.row(v) = rest_correction_.row(v);
-      } else {
-        const Eigen::Vector3d now = reconstructed(corner(t, 0), corner(t, 1), corner(t, 2), scales[static_cast<std::size_t>(t)], barycentric_(v, 0),
-                                                  barycentric_(v, 1), detail_.row(v).transpose());
-        if (own == kInexactRest) {
-          const auto inexact = std::lower_bound(inexact_rest_.begin(), inexact_rest_.end(), static_cast<int>(v),
-                                                [](const InexactRest& entry, int vertex) { return entry.vertex < vertex; });
-          fine_positions.row(v) = (inexact->rest + (now - inexact->rest_reconstruction)).transpose();
+  // A few vertices (a proxy's) make their triangles' maps themselves: the same function, the
+  // same bits, without a pass over every base triangle.
+  std::vector<FootMap>& maps = workspace.maps_->of_triangle;
+  if (whole) {
+    tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, base_triangles_.rows(), kVertexGrain), [&](const auto& range) {
+      for (Eigen::Index t = range.begin(); t != range.end(); ++t) {
+        // The corners of the triangles to come are scattered over the base; the maps written
+        // are in order. Both asked for early, as in the rows below.
+        if (t + kMapAhead < range.end()) {
+          for (int k = 0; k < 3; ++k) {
+            const int u = base_triangles_(t + kMapAhead, k);
+            for (int axis = 0; axis < 3; ++axis) __builtin_prefetch(&base_positions(u, axis));
+          }
+          const auto* bytes = reinterpret_cast<const char*>(&maps[static_cast<std::size_t>(t + kMapAhead)]);
+          for (std::size_t line = 0; line < sizeof(FootMap); line += 64) __builtin_prefetch(bytes + line, 1);
+        }
+        maps[static_cast<std::size_t>(t)] = foot_map(corner(t, 0), corner(t, 1), corner(t, 2));
+      }
+    });
+  }
+  auto rows = [&](const auto& map_of) {
+    tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, count, kVertexGrain), [&](const auto& range) {
+      for (Eigen::Index i = range.begin(); i != range.end(); ++i) {
+        const Eigen::Index v = vertex_at(i);
+        const auto fine = static_cast<std::size_t>(v);
+        const int t = foot_triangle_[fine];
+        const int own = base_of_fine_[fine];
+        // The maps lie in the order of first use (see the constructor), so the one needed a few
+        // vertices on is mostly the next or the same; the other arrays are read and written in
+        // order. Asking for both early hides the wait that bounded the rebuild: the hardware's
+        // own prefetching fell behind on eight streams at once.
+        if (whole) {
+          if (i + kMapAhead < range.end()) {
+            const int ahead = foot_triangle_[static_cast<std::size_t>(i + kMapAhead)];
+            if (ahead >= 0) {
+              const auto* bytes = reinterpret_cast<const char*>(&maps[static_cast<std::size_t>(ahead)]);
+              for (std::size_t line = 0; line < sizeof(FootMap); line += 64) __builtin_prefetch(bytes + line);
+            }
+          }
+          if (const Eigen::Index later = i + kRowAhead; later < count) {
+            __builtin_prefetch(&barycentric_(later, 0));
+            __builtin_prefetch(&detail_(later, 0));
+            __builtin_prefetch(&rest_correction_(later, 0));
+            for (int axis = 0; axis < 3; ++axis) __builtin_prefetch(&fine_positions(later, axis), 1);
+          }
+        }
+        if (own >= 0) {
+          fine_positions.row(v) = base_positions.row(own);
+        } else if (t < 0) {
+          fine_positions.row(v) = rest_correction_.row(v);
         } else {
-          fine_positions.row(v) = now.transpose() + rest_correction_.row(v);
+          const Eigen::Vector3d now = reconstructed(map_of(t), barycentric_(v, 0), barycentric_(v, 1), detail_.row(v).transpose());
+          if (own == kInexactRest) {
+            const auto inexact = std::lower_bound(inexact_rest_.begin(), inexact_rest_.end(), static_cast<int>(v),
+                                                  [](const InexactRest& entry, int vertex) { return entry.vertex < vertex; });
+            fine_positions.row(v) = (inexact->rest + (now - inexact->rest_reconstruction)).transpose();
+          } else {
+            fine_positions.row(v) = now.transpose() + rest_correction_.row(v);
+          }
         }
       }
-    }
-  });
+    });
+  };
+  if (whole) {
+    rows([&](int t) -> const FootMap& { return maps[static_cast<std::size_t>(t)]; });
+  } else {
+    rows([&](int t) { return foot_map(corner(t, 0), corner(t, 1), corner(t, 2)); });
+  }
 }
 
 Eigen::VectorXd DetailEncoding::interpolate(const Eigen::VectorXd& base_values) const {
