@@ -359,21 +359,19 @@ class Collapser {
     });
   }
 
-  // u's cheapest allowed collapse, if any.
-  std::optional<Candidate> cheapest_allowed(int u, std::vector<int>& ring_u, std::vector<int>& ring_v) const {
-    std::vector<int> ring;
-    neighbours(u, ring);
+  // u's cheapest allowed collapse, if any. ring_u holds u's neighbours; ring_v is scratch space.
+  std::optional<Candidate> cheapest_allowed(int u, const std::vector<int>& ring_u, std::vector<int>& ring_v) const {
     std::optional<Candidate> best;
-    for (const int v : ring) {
+    for (const int v : ring_u) {
       const Candidate candidate = cost_of(u, v);
-      if ((!best || *best > candidate) && collapse_allowed(u, v, ring_u, ring_v)) best = candidate;
+      if ((!best || *best > candidate) && collapse_allowed(u, v, ring_u, ring_v, false)) best = candidate;
     }
     return best;
   }
 
-  // ring_u, ring_v: scratch space (collapse_allowed runs on several threads while candidates are costed).
-  // `rings_ready`: ring_u and ring_v already hold u's and v's neighbours.
-  bool collapse_allowed(int u, int v, std::vector<int>& ring_u, std::vector<int>& ring_v, bool rings_ready = false) const {
+  // ring_u holds u's neighbours; ring_v holds v's when `ring_v_ready`, else it is scratch space,
+  // filled only once the cheaper tests pass.
+  bool collapse_allowed(int u, int v, const std::vector<int>& ring_u, std::vector<int>& ring_v, bool ring_v_ready) const {
     if (locked_[static_cast<std::size_t>(u)]) return false;
     // The triangles on the edge, and their far corners.
     std::array<int, 2> opposite{-1, -1};
@@ -389,10 +387,7 @@ class Collapser {
     }
     if (on_edge != 2) return false;
     // Link condition.
-    if (!rings_ready) {
-      neighbours(u, ring_u);
-      neighbours(v, ring_v);
-    }
+    if (!ring_v_ready) neighbours(v, ring_v);
     std::size_t shared = 0;
     for (const int w : ring_u) {
       if (std::find(ring_v.begin(), ring_v.end(), w) == ring_v.end()) continue;
