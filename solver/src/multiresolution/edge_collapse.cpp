@@ -290,6 +290,18 @@ class Collapser {
   // search beats sorting).
   void neighbours(int v, std::vector<int>& out) const {
     out.clear();
+    if (!locked_[static_cast<std::size_t>(v)]) {
+      // One closed fan, oriented one way (one_closed_fan), and the collapses keep it so: each
+      // neighbour follows v in exactly one triangle. (A collapse u → v puts u's side of its link
+      // in place of u in v's link, and these share only the two opposite vertices, by the link
+      // condition; in any other vertex's link, u merges with v where they were neighbours, and
+      // becomes v where v was absent; a link of three, which the merge would pinch, is refused.)
+      for (const int t : around_[static_cast<std::size_t>(v)]) {
+        const auto& c = triangles_[static_cast<std::size_t>(t)];
+        out.push_back(c[0] == v ? c[1] : c[1] == v ? c[2] : c[0]);
+      }
+      return;
+    }
     for (const int t : around_[static_cast<std::size_t>(v)]) {
       for (const int w : triangles_[static_cast<std::size_t>(t)]) {
         if (w != v && std::find(out.begin(), out.end(), w) == out.end()) out.push_back(w);
