@@ -505,17 +505,23 @@ CollapsedMesh collapse_edges(const Mesh& mesh, Eigen::Index target_vertices) {
   Mesh ordered;
   ordered.positions.resize(mesh.vertex_count(), 3);
   tbb::parallel_for(std::size_t{0}, order.size(), [&](std::size_t i) { ordered.positions.row(static_cast<Eigen::Index>(i)) = mesh.positions.row(order[i]); });
-  std::vector<std::pair<int, Eigen::Index>> first(static_cast<std::size_t>(mesh.triangle_count()));
+  // Triangles by their first vertex in the new order, ties by index: a counting sort on it.
+  std::vector<int> first(static_cast<std::size_t>(mesh.triangle_count()));
   tbb::parallel_for(Eigen::Index{0}, mesh.triangle_count(), [&](Eigen::Index t) {
-    first[static_cast<std::size_t>(t)] = {std::min({rank[static_cast<std::size_t>(mesh.triangles(t, 0))], rank[static_cast<std::size_t>(mesh.triangles(t, 1))],
-                                                     rank[static_cast<std::size_t>(mesh.triangles(t, 2))]}),
-                                           t};
+    first[static_cast<std::size_t>(t)] = std::min({rank[static_cast<std::size_t>(mesh.triangles(t, 0))], rank[static_cast<std::size_t>(mesh.triangles(t, 1))],
+                                                   rank[static_cast<std::size_t>(mesh.triangles(t, 2))]});
   });
-  tbb::parallel_sort(first.begin(), first.end());
+  std::vector<Eigen::Index> by_first(first.size());
+  {
+    std::vector<std::size_t> next(order.size() + 1, 0);
+    for (const int r : first) ++next[static_cast<std::size_t>(r) + 1];
+    for (std::size_t r = 0; r < order.size(); ++r) next[r + 1] += next[r];
+    for (std::size_t t = 0; t < first.size(); ++t) by_first[next[static_cast<std::size_t>(first[t])]++] = static_cast<Eigen::Index>(t);
+  }
   ordered.triangles.resize(mesh.triangle_count(), 3);
-  tbb::parallel_for(std::size_t{0}, first.size(), [&](std::size_t i) {
+  tbb::parallel_for(std::size_t{0}, by_first.size(), [&](std::size_t i) {
     for (int k = 0; k < 3; ++k) {
-      ordered.triangles(static_cast<Eigen::Index>(i), k) = rank[static_cast<std::size_t>(mesh.triangles(first[i].second, k))];
+      ordered.triangles(static_cast<Eigen::Index>(i), k) = rank[static_cast<std::size_t>(mesh.triangles(by_first[i], k))];
     }
   });
   Collapser collapser(ordered);
