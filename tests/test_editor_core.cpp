@@ -4,6 +4,7 @@
 #include <fstream>
 #include <mutex>
 #include <random>
+#include <set>
 #include <thread>
 
 #include "model/document.h"
@@ -125,6 +126,38 @@ TEST(Selection, BallLassoGrowShrinkAndConnected) {
   EXPECT_EQ(std::count(ring.begin(), ring.end(), true), 1 + static_cast<long>(adjacency.neighbours(middle).size()));
   EXPECT_EQ(cli::shrunk(ring, adjacency), one);
   EXPECT_EQ(cli::connected_vertices(0, adjacency).size(), static_cast<std::size_t>(grid.vertex_count()));
+}
+
+// Each vertex's one ring, sorted and without repeats, against a set of edges built in the test:
+// random triangle lists with repeated corners (an edge from a vertex to itself is none),
+// non-manifold edges, and vertices that no triangle uses.
+TEST(Selection, AdjacencyListsEachVertexsNeighboursOnceInOrder) {
+  std::mt19937 random(7);
+  for (int trial = 0; trial < 20; ++trial) {
+    const int vertices = 1 + static_cast<int>(random() % 60);
+    const int count = static_cast<int>(random() % 120);
+    Eigen::MatrixXi triangles(count, 3);
+    for (int t = 0; t < count; ++t) {
+      for (int k = 0; k < 3; ++k) triangles(t, k) = static_cast<int>(random() % static_cast<unsigned>(vertices));
+    }
+    std::vector<std::set<int>> expected(static_cast<std::size_t>(vertices));
+    for (int t = 0; t < count; ++t) {
+      for (int k = 0; k < 3; ++k) {
+        const int a = triangles(t, k), b = triangles(t, (k + 1) % 3);
+        if (a == b) continue;
+        expected[static_cast<std::size_t>(a)].insert(b);
+        expected[static_cast<std::size_t>(b)].insert(a);
+      }
+    }
+    const cli::VertexAdjacency adjacency(triangles, vertices);
+    ASSERT_EQ(adjacency.vertex_count(), static_cast<std::size_t>(vertices));
+    for (int v = 0; v < vertices; ++v) {
+      const auto ring = adjacency.neighbours(v);
+      EXPECT_EQ(std::vector<int>(ring.begin(), ring.end()),
+                std::vector<int>(expected[static_cast<std::size_t>(v)].begin(), expected[static_cast<std::size_t>(v)].end()))
+          << "trial " << trial << ", vertex " << v;
+    }
+  }
 }
 
 class DocumentTest : public ::testing::Test {

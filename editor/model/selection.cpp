@@ -5,23 +5,35 @@
 namespace hdeform::cli {
 
 VertexAdjacency::VertexAdjacency(const Eigen::MatrixXi& triangles, Eigen::Index vertex_count) {
-  std::vector<std::pair<int, int>> edges;
-  edges.reserve(static_cast<std::size_t>(triangles.size()) * 2);
-  for (Eigen::Index t = 0; t < triangles.rows(); ++t) {
-    for (int k = 0; k < 3; ++k) {
-      const int a = triangles(t, k), b = triangles(t, (k + 1) % 3);
-      if (a == b) continue;
-      edges.emplace_back(a, b);
-      edges.emplace_back(b, a);
+  // Each triangle's edges both ways, bucketed by their first vertex (a counting sort: sorting
+  // the 20 million pairs of a 3.3M-triangle scan took 1.3 s of its opening); then each vertex's
+  // few neighbours sorted and made unique in place, and the lists closed up.
+  const auto n = static_cast<std::size_t>(vertex_count);
+  std::vector<int> next(n + 1, 0);
+  auto each_edge = [&](auto&& visit) {
+    for (Eigen::Index t = 0; t < triangles.rows(); ++t) {
+      for (int k = 0; k < 3; ++k) {
+        const int a = triangles(t, k), b = triangles(t, (k + 1) % 3);
+        if (a == b) continue;
+        visit(a, b);
+        visit(b, a);
+      }
     }
+  };
+  each_edge([&](int a, int) { ++next[static_cast<std::size_t>(a) + 1]; });
+  for (std::size_t v = 0; v < n; ++v) next[v + 1] += next[v];
+  std::vector<int> bucket_start(next.begin(), next.end());
+  std::vector<int> listed(static_cast<std::size_t>(next[n]));
+  each_edge([&](int a, int b) { listed[static_cast<std::size_t>(next[static_cast<std::size_t>(a)]++)] = b; });
+  start_.assign(n + 1, 0);
+  neighbours_.clear();
+  neighbours_.reserve(listed.size() / 2);
+  for (std::size_t v = 0; v < n; ++v) {
+    const auto first = listed.begin() + bucket_start[v], last = listed.begin() + bucket_start[v + 1];
+    std::sort(first, last);
+    neighbours_.insert(neighbours_.end(), first, std::unique(first, last));
+    start_[v + 1] = static_cast<int>(neighbours_.size());
   }
-  std::sort(edges.begin(), edges.end());
-  edges.erase(std::unique(edges.begin(), edges.end()), edges.end());
-  start_.assign(static_cast<std::size_t>(vertex_count) + 1, 0);
-  for (const auto& [a, b] : edges) ++start_[static_cast<std::size_t>(a) + 1];
-  for (std::size_t v = 0; v + 1 < start_.size(); ++v) start_[v + 1] += start_[v];
-  neighbours_.resize(edges.size());
-  for (std::size_t k = 0; k < edges.size(); ++k) neighbours_[k] = edges[k].second;  // sorted by first: already in place
 }
 
 std::vector<int> vertices_in_ball(std::span<const float> position_normal, const Eigen::Vector3f& center, float radius) {
