@@ -3,12 +3,14 @@
 #include <cstdio>
 #include <limits>
 #include <numbers>
+#include <random>
 #include <set>
 #include <thread>
 
 #include "hdeform/deformer.h"
 #include "hdeform/dirichlet_system.h"
 #include "hdeform/errors.h"
+#include "hdeform/engine/closed_mesh.h"
 #include "hdeform/engine/frame_slots.h"
 #include "hdeform/engine/mesh_renderer.h"
 #include "hdeform/engine/offscreen.h"
@@ -257,6 +259,37 @@ TEST(ProxyMesh, FewerTrianglesOverTheSameVerticesAndTheSameSurface) {
     for (const auto& [from, to] : directed) EXPECT_TRUE(directed.count({to, from})) << from << " → " << to << " has no twin";
   }
   EXPECT_EQ(engine::proxy_triangles(sphere.triangles, sphere.positions, sphere.triangle_count() / 2).rows(), 0);
+}
+
+// Closed for drawing (back faces never in view): a sphere is; without one triangle, or with one
+// turned over, it is not. And on random triangle lists, the answer of a set of directed edges
+// built in the test.
+TEST(ClosedMesh, EveryEdgeHasItsReverseOrNot) {
+  const Mesh sphere = make_shape(ShapeKind::Sphere, 24).mesh;
+  EXPECT_TRUE(engine::every_edge_has_its_reverse(sphere.triangles, sphere.vertex_count()));
+  Eigen::MatrixXi open = sphere.triangles.topRows(sphere.triangle_count() - 1);
+  EXPECT_FALSE(engine::every_edge_has_its_reverse(open, sphere.vertex_count()));
+  Eigen::MatrixXi turned = sphere.triangles;
+  std::swap(turned(5, 1), turned(5, 2));
+  EXPECT_FALSE(engine::every_edge_has_its_reverse(turned, sphere.vertex_count()));
+  EXPECT_FALSE(engine::every_edge_has_its_reverse(Eigen::MatrixXi(0, 3), 4));
+  std::mt19937 random(11);
+  int closed_lists = 0;
+  for (int trial = 0; trial < 200; ++trial) {
+    const int vertices = 3 + static_cast<int>(random() % 5);
+    Eigen::MatrixXi triangles(1 + static_cast<int>(random() % 8), 3);
+    for (Eigen::Index t = 0; t < triangles.rows(); ++t) {
+      for (int k = 0; k < 3; ++k) triangles(t, k) = static_cast<int>(random() % static_cast<unsigned>(vertices));
+    }
+    std::set<std::pair<int, int>> directed;
+    for (Eigen::Index t = 0; t < triangles.rows(); ++t) {
+      for (int k = 0; k < 3; ++k) directed.insert({triangles(t, k), triangles(t, (k + 1) % 3)});
+    }
+    const bool expected = std::all_of(directed.begin(), directed.end(), [&](const auto& edge) { return directed.count({edge.second, edge.first}) > 0; });
+    closed_lists += expected ? 1 : 0;
+    EXPECT_EQ(engine::every_edge_has_its_reverse(triangles, vertices), expected) << "trial " << trial;
+  }
+  EXPECT_GT(closed_lists, 0);  // the random lists reach both answers
 }
 
 // Drawn with the proxy, the picture is nearly the mesh's; without the setting, exactly the mesh's.

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstring>
 
+#include "hdeform/engine/closed_mesh.h"
 #include "hdeform/engine/palette.h"
 #include "hdeform/mesh.h"
 #include "shaders/ground_frag.h"
@@ -291,18 +292,7 @@ void MeshRenderer::set_mesh(const Eigen::MatrixXi& triangles, GeometryExchange& 
   up_ = up;
   index_count_ = static_cast<uint32_t>(triangles.size());
   indices_ = index_buffer(triangles);
-  // Closed: every directed edge has its reverse (each edge in two consistently oriented triangles).
-  std::vector<std::uint64_t> directed;
-  directed.reserve(static_cast<std::size_t>(triangles.size()));
-  for (Eigen::Index t = 0; t < triangles.rows(); ++t) {
-    for (int k = 0; k < 3; ++k) {
-      directed.push_back((std::uint64_t(std::uint32_t(triangles(t, k))) << 32) | std::uint32_t(triangles(t, (k + 1) % 3)));
-    }
-  }
-  std::sort(directed.begin(), directed.end());
-  closed_ = !directed.empty() && std::all_of(directed.begin(), directed.end(), [&](std::uint64_t edge) {
-    return std::binary_search(directed.begin(), directed.end(), (edge << 32) | (edge >> 32));
-  });
+  closed_ = every_edge_has_its_reverse(triangles, static_cast<Eigen::Index>(vertex_count_));
   for (auto& frame : frames_) {
     frame.geometry = context_.create_buffer(sizeof(float) * 6 * vertex_count_, VK_BUFFER_USAGE_VERTEX_BUFFER_BIT);
     frame.attributes = context_.create_buffer(sizeof(float) * 2 * vertex_count_, VK_BUFFER_USAGE_VERTEX_BUFFER_BIT);
