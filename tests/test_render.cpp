@@ -445,6 +445,8 @@ TEST(GeometryPublisher, AProxyPublicationWritesTheProxysVerticesAsAWholeOneWould
   EXPECT_EQ(snapshot->tag, 2u);
   ASSERT_NE(snapshot->only_vertices, nullptr);
   EXPECT_EQ(*snapshot->only_vertices, proxy_vertices);
+  ASSERT_NE(publisher.proxy_vertices(), nullptr);
+  EXPECT_EQ(*publisher.proxy_vertices(), proxy_vertices);
   std::size_t differing = 0;
   for (const int v : proxy_vertices) {
     for (int c = 0; c < 6; ++c) differing += snapshot->position_normal[6 * static_cast<std::size_t>(v) + c] != reference[6 * static_cast<std::size_t>(v) + c];
@@ -457,6 +459,7 @@ TEST(GeometryPublisher, AProxyPublicationWritesTheProxysVerticesAsAWholeOneWould
   EXPECT_EQ(snapshot->position_normal, reference);
 
   publisher.set_proxy(Eigen::MatrixXi(0, 3));
+  EXPECT_EQ(publisher.proxy_vertices(), nullptr);
   publisher.publish(moved, 4, engine::GeometryPublisher::Detail::Proxy);
   EXPECT_EQ(exchange.acquire()->only_vertices, nullptr);
   EXPECT_EQ(exchange.acquire()->position_normal, reference);

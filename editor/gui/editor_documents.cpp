@@ -274,12 +274,7 @@ void EditorApp::finish_proxy() {
   }
   renderer_->set_proxy(*outcome.result);
   publisher_->set_proxy(*outcome.result);
-  {
-    auto vertices = std::make_shared<std::vector<int>>(outcome.result->data(), outcome.result->data() + outcome.result->size());
-    std::sort(vertices->begin(), vertices->end());
-    vertices->erase(std::unique(vertices->begin(), vertices->end()), vertices->end());
-    document_->set_partial_vertices(std::move(vertices));
-  }
+  document_->set_partial_vertices(publisher_->proxy_vertices());  // what a drag's answer needs
   proxy_triangle_count_ = outcome.result->rows();
   motion_detail_.enable(renderer_->has_proxy());
   print_json_line({{"event", "proxy"}, {"triangles", outcome.result->rows()}});

@@ -115,6 +115,11 @@ void GeometryPublisher::set_proxy(const Eigen::MatrixXi& proxy_triangles) {
   proxy_ = std::move(proxy);
 }
 
+std::shared_ptr<const std::vector<int>> GeometryPublisher::proxy_vertices() const {
+  const std::lock_guard lock(mutex_);
+  return proxy_ ? proxy_->vertices : nullptr;
+}
+
 void GeometryPublisher::publish(const Eigen::MatrixXd& positions, std::uint64_t tag, Detail detail) {
   const std::lock_guard lock(mutex_);
   GeometrySnapshot& back = exchange_.back();

@@ -291,10 +291,10 @@ DetailEncoding::DetailEncoding(const Mesh& fine, const BaseMesh& base)
       }
       if (best < 0) continue;
       const Eigen::Vector3d a = corner(best, 0), b = corner(best, 1), c = corner(best, 2);
-      const Eigen::Vector3d foot = a + best_weights[0] * (b - a) + best_weights[1] * (c - a);
       foot_triangle_[v] = best;
       barycentric_.row(vertex) = best_weights.transpose();
       const FootMap map = foot_map(a, b, c);
+      const Eigen::Vector3d foot = map.origin + best_weights[0] * map.to_b + best_weights[1] * map.to_c;
       detail_.row(vertex) = (map.frame.transpose() * (p - foot)).transpose();
       rest_reconstruction.row(vertex) = reconstructed(map, best_weights[0], best_weights[1], detail_.row(vertex).transpose()).transpose();
     }

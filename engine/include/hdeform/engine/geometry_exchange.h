@@ -97,12 +97,14 @@ class GeometryPublisher {
   enum class Detail { Whole, Proxy };
   /// The proxy's triangles (proxy_mesh.h); empty: none, and Proxy publishes the whole mesh.
   void set_proxy(const Eigen::MatrixXi& proxy_triangles);
+  /// The vertices a Proxy publication writes (ascending, distinct); null without a proxy.
+  std::shared_ptr<const std::vector<int>> proxy_vertices() const;
   /// Fills the back buffer with `positions` and their normals, labels it `tag`, and publishes it.
   void publish(const Eigen::MatrixXd& positions, std::uint64_t tag = 0, Detail detail = Detail::Whole);
 
  private:
   GeometryExchange& exchange_;
-  std::mutex mutex_;  // one publication at a time; guards proxy_ too
+  mutable std::mutex mutex_;  // one publication at a time; guards proxy_ too
   VertexNormals normals_;
   std::shared_ptr<const VertexNormals::Subset> proxy_;
 };
