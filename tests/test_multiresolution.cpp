@@ -288,8 +288,9 @@ TEST(Multiresolution, NothingMovedGivesTheMeshBackToTheLastBit) {
 
 TEST(DetailEncoding, CoordinatesNearZeroComeBackToTheLastBitToo) {
   // Where a rest coordinate is tiny beside the base's (1e-19 of a unit mesh), the reconstruction's
-  // rounding is larger than the coordinate itself, and rest − reconstruction rounds: those
-  // vertices must still come back exactly, and move like their neighbours.
+  // rounding is larger than the coordinate itself, and rest − reconstruction rounds or has more
+  // bits than the float the encoding keeps it in: those vertices must still come back exactly,
+  // and move like their neighbours.
   Relief relief = bar_with_relief();
   const double limit = 1e-3 * relief.diagonal;
   int tiny = 0;

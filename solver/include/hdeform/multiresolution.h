@@ -130,18 +130,25 @@ class DetailEncoding {
 
   Eigen::Index base_count_ = 0;
   Eigen::MatrixXi base_triangles_;
-  std::vector<int> base_of_fine_;  ///< −1: not a base vertex; kInexactRest: nor, and in inexact_rest_
+  std::vector<int> base_of_fine_;  ///< −1: not a base vertex
   std::vector<int> foot_triangle_;  ///< −1: unreferenced, kept at rest
-  Eigen::Matrix<double, Eigen::Dynamic, 2, Eigen::RowMajor> barycentric_;  ///< weights of corners 1 and 2
-  Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> detail_;
-  /// Added to the reconstruction: the rest position minus the reconstruction's own arithmetic on
-  /// the rest base, so that the rest base gives back the rest positions to the last bit (a vertex
-  /// no triangle references: its rest position). One array rather than both: the rebuild of
-  /// millions of vertices is bound by what it reads.
-  Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> rest_correction_;
-  static constexpr int kInexactRest = -2;
-  /// A vertex whose rest position is not its rest reconstruction plus their difference (a
-  /// coordinate near zero rounds): rebuilt as rest + (now − rest reconstruction). By vertex.
+  /// What the rebuild reads of a fine vertex, in one row: a rebuild of millions of vertices is
+  /// bound by the bytes it reads, and one stream is read ahead better than five.
+  struct FineRow {
+    double wb = 0.0, wc = 0.0;  ///< weights of the foot triangle's corners 1 and 2
+    /// In the foot triangle's frame; for a vertex no triangle references, its rest position.
+    std::array<double, 3> detail{};
+    /// Added to the reconstruction: the rest position minus the reconstruction's own arithmetic
+    /// on the rest base, so that the rest base gives back the rest positions to the last bit. A
+    /// few ulps, so a float holds it exactly; NaN where it does not, or where the sum rounds (a
+    /// coordinate near zero): then the vertex is in inexact_rest_.
+    std::array<float, 3> correction{};
+    /// ≥ 0: the foot triangle; −1: no triangle references the vertex; ≤ −2: base vertex −2 − foot.
+    int foot = -1;
+  };
+  std::vector<FineRow> rows_;
+  /// A vertex whose rest position is not its rest reconstruction plus a float's correction:
+  /// rebuilt as rest + (now − rest reconstruction). By vertex.
   struct InexactRest {
     int vertex;
     Eigen::Vector3d rest, rest_reconstruction;

@@ -222,8 +222,8 @@ DetailEncoding::DetailEncoding(const Mesh& fine, const BaseMesh& base)
   const std::vector<int> nearest = nearest_base_along_surface(fine, base_of_fine_, fine_incidence);
 
   foot_triangle_.assign(n, -1);
-  barycentric_.setZero(fine.vertex_count(), 2);
-  detail_.setZero(fine.vertex_count(), 3);
+  Eigen::Matrix<double, Eigen::Dynamic, 2, Eigen::RowMajor> barycentric = Eigen::MatrixX2d::Zero(fine.vertex_count(), 2);
+  Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> detail = Eigen::MatrixX3d::Zero(fine.vertex_count(), 3);
   // Until every foot is known: the reconstruction's own arithmetic on the rest base.
   Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::RowMajor> rest_reconstruction = fine.positions;
   const auto& base_positions = base.mesh.positions;
@@ -241,7 +241,7 @@ DetailEncoding::DetailEncoding(const Mesh& fine, const BaseMesh& base)
         const int k = base_triangles_(t, 0) == j ? 0 : base_triangles_(t, 1) == j ? 1 : 2;
         foot_triangle_[v] = t;
         // The weights that pick corner k alone.
-        barycentric_.row(vertex) << (k == 1 ? 1.0 : 0.0), (k == 2 ? 1.0 : 0.0);
+        barycentric.row(vertex) << (k == 1 ? 1.0 : 0.0), (k == 2 ? 1.0 : 0.0);
         continue;
       }
       if (nearest[v] < 0) continue;
@@ -292,34 +292,14 @@ DetailEncoding::DetailEncoding(const Mesh& fine, const BaseMesh& base)
       if (best < 0) continue;
       const Eigen::Vector3d a = corner(best, 0), b = corner(best, 1), c = corner(best, 2);
       foot_triangle_[v] = best;
-      barycentric_.row(vertex) = best_weights.transpose();
+      barycentric.row(vertex) = best_weights.transpose();
       const FootMap map = foot_map(a, b, c);
       const Eigen::Vector3d foot = map.origin + best_weights[0] * map.to_b + best_weights[1] * map.to_c;
-      detail_.row(vertex) = (map.frame.transpose() * (p - foot)).transpose();
-      rest_reconstruction.row(vertex) = reconstructed(map, best_weights[0], best_weights[1], detail_.row(vertex).transpose()).transpose();
+      detail.row(vertex) = (map.frame.transpose() * (p - foot)).transpose();
+      rest_reconstruction.row(vertex) = reconstructed(map, best_weights[0], best_weights[1], detail.row(vertex).transpose()).transpose();
     }
   });
-  for (std::size_t v = 0; v < n; ++v) largest_detail_ = std::max(largest_detail_, detail_.row(static_cast<Eigen::Index>(v)).norm());
-
-  // The rebuild adds rest − rest reconstruction to its own reconstruction: on the rest base that
-  // is the rest position to the last bit wherever the difference is exact (Sterbenz: the two agree
-  // to rounding), which is checked here. Where a coordinate is near zero it may round; such a
-  // vertex keeps both and is rebuilt as rest + (now − rest reconstruction).
-  rest_correction_.resize(fine.vertex_count(), 3);
-  for (std::size_t v = 0; v < n; ++v) {
-    const auto row = static_cast<Eigen::Index>(v);
-    if (base_of_fine_[v] >= 0) {
-      rest_correction_.row(row).setZero();
-    } else if (foot_triangle_[v] < 0) {
-      rest_correction_.row(row) = fine.positions.row(row);
-    } else {
-      rest_correction_.row(row) = fine.positions.row(row) - rest_reconstruction.row(row);
-      if (!((rest_reconstruction.row(row) + rest_correction_.row(row)).array() == fine.positions.row(row).array()).all()) {
-        base_of_fine_[v] = kInexactRest;
-        inexact_rest_.push_back({static_cast<int>(v), fine.positions.row(row).transpose(), rest_reconstruction.row(row).transpose()});
-      }
-    }
-  }
+  for (std::size_t v = 0; v < n; ++v) largest_detail_ = std::max(largest_detail_, detail.row(static_cast<Eigen::Index>(v)).norm());
 
   // The encoding's own triangle order: by first use in fine vertex order, so that a rebuild reads
   // the foot maps nearly in sequence rather than with a cache miss per vertex (the base's order
@@ -339,6 +319,40 @@ DetailEncoding::DetailEncoding(const Mesh& fine, const BaseMesh& base)
     ordered.row(number) = base_triangles_.row(t);
   }
   base_triangles_ = std::move(ordered);
+
+  // The rebuild adds rest − rest reconstruction to its own reconstruction: on the rest base that
+  // is the rest position to the last bit wherever the difference is exact (Sterbenz: the two agree
+  // to rounding, so it is a few ulps, which a float holds too), which is checked here. Where a
+  // coordinate is near zero it may round; such a vertex keeps both and is rebuilt as
+  // rest + (now − rest reconstruction).
+  rows_.resize(n);
+  for (std::size_t v = 0; v < n; ++v) {
+    const auto row = static_cast<Eigen::Index>(v);
+    FineRow& entry = rows_[v];
+    if (base_of_fine_[v] >= 0) {
+      entry.foot = -2 - base_of_fine_[v];
+      continue;
+    }
+    if (foot_triangle_[v] < 0) {
+      for (int axis = 0; axis < 3; ++axis) entry.detail[static_cast<std::size_t>(axis)] = fine.positions(row, axis);
+      continue;
+    }
+    entry.foot = foot_triangle_[v];
+    entry.wb = barycentric(row, 0);
+    entry.wc = barycentric(row, 1);
+    bool exact = true;
+    for (int axis = 0; axis < 3; ++axis) {
+      const auto a = static_cast<std::size_t>(axis);
+      entry.detail[a] = detail(row, axis);
+      const double difference = fine.positions(row, axis) - rest_reconstruction(row, axis);
+      entry.correction[a] = static_cast<float>(difference);
+      exact = exact && static_cast<double>(entry.correction[a]) == difference && rest_reconstruction(row, axis) + difference == fine.positions(row, axis);
+    }
+    if (!exact) {
+      entry.correction.fill(std::numeric_limits<float>::quiet_NaN());
+      inexact_rest_.push_back({static_cast<int>(v), fine.positions.row(row).transpose(), rest_reconstruction.row(row).transpose()});
+    }
+  }
 }
 
 DetailEncoding::Workspace::Workspace() = default;
@@ -412,46 +426,46 @@ void DetailEncoding::rebuild(const Eigen::MatrixXd& base_positions, Eigen::Matri
       }
     });
   }
+  const std::array<double*, 3> column{fine_positions.col(0).data(), fine_positions.col(1).data(), fine_positions.col(2).data()};
   auto rows = [&](const auto& map_of) {
     tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, count, kVertexGrain), [&](const auto& range) {
       for (Eigen::Index i = range.begin(); i != range.end(); ++i) {
         const Eigen::Index v = vertex_at(i);
-        const auto fine = static_cast<std::size_t>(v);
-        const int t = foot_triangle_[fine];
-        const int own = base_of_fine_[fine];
+        const FineRow& row = rows_[static_cast<std::size_t>(v)];
         // The maps lie in the order of first use (see the constructor), so the one needed a few
-        // vertices on is mostly the next or the same; the other arrays are read and written in
-        // order. Asking for both early hides the wait that bounded the rebuild: the hardware's
-        // own prefetching fell behind on eight streams at once.
+        // vertices on is mostly the next or the same; the rows are read in order. Asking for
+        // both early hides the wait that bounded the rebuild.
         if (whole) {
           if (i + kMapAhead < range.end()) {
-            const int ahead = foot_triangle_[static_cast<std::size_t>(i + kMapAhead)];
+            const int ahead = rows_[static_cast<std::size_t>(i + kMapAhead)].foot;
             if (ahead >= 0) {
               const auto* bytes = reinterpret_cast<const char*>(&maps[static_cast<std::size_t>(ahead)]);
               for (std::size_t line = 0; line < sizeof(FootMap); line += 64) __builtin_prefetch(bytes + line);
             }
           }
           if (const Eigen::Index later = i + kRowAhead; later < count) {
-            __builtin_prefetch(&barycentric_(later, 0));
-            __builtin_prefetch(&detail_(later, 0));
-            __builtin_prefetch(&rest_correction_(later, 0));
-            for (int axis = 0; axis < 3; ++axis) __builtin_prefetch(&fine_positions(later, axis), 1);
+            const auto* bytes = reinterpret_cast<const char*>(&rows_[static_cast<std::size_t>(later)]);
+            __builtin_prefetch(bytes);
+            __builtin_prefetch(bytes + sizeof(FineRow) - 1);
           }
         }
-        if (own >= 0) {
-          fine_positions.row(v) = base_positions.row(own);
-        } else if (t < 0) {
-          fine_positions.row(v) = rest_correction_.row(v);
-        } else {
-          const Eigen::Vector3d now = reconstructed(map_of(t), barycentric_(v, 0), barycentric_(v, 1), detail_.row(v).transpose());
-          if (own == kInexactRest) {
+        Eigen::Vector3d position;
+        if (row.foot >= 0) {
+          const Eigen::Vector3d now = reconstructed(map_of(row.foot), row.wb, row.wc, Eigen::Vector3d(row.detail[0], row.detail[1], row.detail[2]));
+          if (std::isnan(row.correction[0])) {
             const auto inexact = std::lower_bound(inexact_rest_.begin(), inexact_rest_.end(), static_cast<int>(v),
                                                   [](const InexactRest& entry, int vertex) { return entry.vertex < vertex; });
-            fine_positions.row(v) = (inexact->rest + (now - inexact->rest_reconstruction)).transpose();
+            position = inexact->rest + (now - inexact->rest_reconstruction);
           } else {
-            fine_positions.row(v) = now.transpose() + rest_correction_.row(v);
+            position = now + Eigen::Vector3f(row.correction[0], row.correction[1], row.correction[2]).cast<double>();
           }
+        } else if (row.foot == -1) {
+          position = Eigen::Vector3d(row.detail[0], row.detail[1], row.detail[2]);
+        } else {
+          position = base_positions.row(-2 - row.foot).transpose();
         }
+        // Three plain stores: Eigen's row assignment into a column-major matrix is a strided loop.
+        for (int axis = 0; axis < 3; ++axis) column[static_cast<std::size_t>(axis)][v] = position[axis];
       }
     });
   };
@@ -471,7 +485,7 @@ Eigen::VectorXd DetailEncoding::interpolate(const Eigen::VectorXd& base_values) 
     if (base_of_fine_[i] >= 0) fine[v] = base_values[base_of_fine_[i]];
     else if (t < 0) fine[v] = 0.0;
     else {
-      const double wb = barycentric_(v, 0), wc = barycentric_(v, 1);
+      const double wb = rows_[i].wb, wc = rows_[i].wc;
       fine[v] = (1.0 - wb - wc) * base_values[base_triangles_(t, 0)] + wb * base_values[base_triangles_(t, 1)] +
                 wc * base_values[base_triangles_(t, 2)];
     }
