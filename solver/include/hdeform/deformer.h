@@ -262,7 +262,6 @@ class Deformer {
   /// Multiresolution: the deformer of the base, and its last positions.
   std::unique_ptr<Deformer> base_;
   Eigen::MatrixXd base_positions_;
-  DetailEncoding::Workspace reconstruction_workspace_;
 };
 
 }  // namespace hdeform

@@ -79,36 +79,13 @@ class DetailEncoding {
   /// The fine mesh on a deformed base (base_positions: the base's vertex count × 3): each fine
   /// vertex moves by the change of its foot plus its detail in the triangle's frame, so with the
   /// base at rest every vertex is its rest position to the last bit, and a rigid motion of the
-  /// base moves it rigidly. Base vertices take the base's positions. Parallel; allocates its
-  /// workspace (the overload below does not).
+  /// base moves it rigidly. Base vertices take the base's positions. Parallel, and allocation-free
+  /// once `fine_positions` has the fine size; one encoding may serve several rebuilds at once.
   void reconstruct(const Eigen::MatrixXd& base_positions, Eigen::MatrixXd& fine_positions) const;
-
-  /// What a rebuild computes once per base triangle before the fine vertices on it: the
-  /// caller's, so that one encoding serves several deformers at once and a rebuild allocates
-  /// nothing. Made by workspace(); movable.
-  class Workspace {
-   public:
-    Workspace();  ///< empty: for no encoding until assigned one from workspace()
-    ~Workspace();
-    Workspace(Workspace&&) noexcept;
-    Workspace& operator=(Workspace&&) noexcept;
-
-   private:
-    friend class DetailEncoding;
-    struct Maps;
-    std::unique_ptr<Maps> maps_;
-  };
-  /// A workspace sized for this encoding's base.
-  Workspace workspace() const;
-  /// reconstruct() in `workspace` (from workspace(); throws std::invalid_argument for one sized
-  /// for another base), allocation-free once `fine_positions` has the fine size. Nothing of a
-  /// rebuild is carried to the next: one workspace may serve any encoding of the same base size.
-  void reconstruct(const Eigen::MatrixXd& base_positions, Eigen::MatrixXd& fine_positions, Workspace& workspace) const;
   /// The same for the fine `vertices` alone (say, those a proxy draws), each row the bits the
   /// whole rebuild gives it; the other rows keep what they held (`fine_positions` must have the
   /// fine size).
-  void reconstruct(const Eigen::MatrixXd& base_positions, Eigen::MatrixXd& fine_positions, Workspace& workspace,
-                   std::span<const int> vertices) const;
+  void reconstruct(const Eigen::MatrixXd& base_positions, Eigen::MatrixXd& fine_positions, std::span<const int> vertices) const;
 
   /// Per-vertex values of the base carried to the fine mesh, linearly over the foot triangles.
   Eigen::VectorXd interpolate(const Eigen::VectorXd& base_values) const;
@@ -122,18 +99,20 @@ class DetailEncoding {
   double largest_detail() const { return largest_detail_; }
 
  private:
-  // The rebuild of `count` fine vertices, the i-th being vertex_at(i); `whole`: every vertex in
-  // order, fine_positions taking the fine size first.
-  template <class Vertex>
-  void rebuild(const Eigen::MatrixXd& base_positions, Eigen::MatrixXd& fine_positions, Workspace& workspace, Eigen::Index count,
-               const Vertex& vertex_at, bool whole) const;
+  struct FineRow;
+  void check_base(const Eigen::MatrixXd& base_positions) const;
+  // A fine vertex's position from its row and its foot triangle's map (none: no triangle
+  // references it).
+  template <class Map>
+  Eigen::Vector3d position_of(const FineRow& row, const Map* map) const;
 
   Eigen::Index base_count_ = 0;
   Eigen::MatrixXi base_triangles_;
   std::vector<int> base_of_fine_;  ///< −1: not a base vertex
+  std::vector<int> fine_of_base_;  ///< base vertex → its fine vertex
   std::vector<int> foot_triangle_;  ///< −1: unreferenced, kept at rest
-  /// What the rebuild reads of a fine vertex, in one row: a rebuild of millions of vertices is
-  /// bound by the bytes it reads, and one stream is read ahead better than five.
+  /// What the rebuild reads of a fine vertex that is not a base vertex, in one row: a rebuild of
+  /// millions of vertices is bound by the bytes it reads.
   struct FineRow {
     double wb = 0.0, wc = 0.0;  ///< weights of the foot triangle's corners 1 and 2
     /// In the foot triangle's frame; for a vertex no triangle references, its rest position.
@@ -143,10 +122,14 @@ class DetailEncoding {
     /// few ulps, so a float holds it exactly; NaN where it does not, or where the sum rounds (a
     /// coordinate near zero): then the vertex is in inexact_rest_.
     std::array<float, 3> correction{};
-    /// ≥ 0: the foot triangle; −1: no triangle references the vertex; ≤ −2: base vertex −2 − foot.
-    int foot = -1;
+    int vertex = -1;  ///< the fine vertex
   };
+  /// By foot triangle (the rows of triangle t: triangle_rows_[t] up to triangle_rows_[t + 1]),
+  /// so that a rebuild makes each triangle's map once and uses it at once; then the vertices no
+  /// triangle references.
   std::vector<FineRow> rows_;
+  std::vector<int> triangle_rows_;
+  std::vector<int> row_of_fine_;  ///< −1 for a base vertex
   /// A vertex whose rest position is not its rest reconstruction plus a float's correction:
   /// rebuilt as rest + (now − rest reconstruction). By vertex.
   struct InexactRest {

@@ -406,8 +406,8 @@ void Deformer::update(std::span<const HandleTransform> transforms, Eigen::Matrix
   if (base_) {
     base_->deform(transforms, base_positions_, start);
     const auto detail_began = Clock::now();
-    if (only_vertices) operators_->multiresolution->encoding.reconstruct(base_positions_, positions, reconstruction_workspace_, *only_vertices);
-    else operators_->multiresolution->encoding.reconstruct(base_positions_, positions, reconstruction_workspace_);
+    if (only_vertices) operators_->multiresolution->encoding.reconstruct(base_positions_, positions, *only_vertices);
+    else operators_->multiresolution->encoding.reconstruct(base_positions_, positions);
     write_constrained(transforms, positions);
     last_update_ = base_->last_update();
     last_update_.detail_ms = milliseconds_since(detail_began);
@@ -498,7 +498,7 @@ bool Deformer::deform_vertices(std::span<const HandleTransform> transforms, Eige
 
 void Deformer::complete(Eigen::MatrixXd& positions) {
   if (!base_) return;
-  operators_->multiresolution->encoding.reconstruct(base_positions_, positions, reconstruction_workspace_);
+  operators_->multiresolution->encoding.reconstruct(base_positions_, positions);
   write_constrained(edited_, positions);
 }
 
@@ -509,7 +509,7 @@ int Deformer::refine(Eigen::MatrixXd& positions, int max_iterations) {
   if (base_) {
     const int iterations = base_->refine(base_positions_, max_iterations);
     if (iterations > 0) {
-      operators_->multiresolution->encoding.reconstruct(base_positions_, positions, reconstruction_workspace_);
+      operators_->multiresolution->encoding.reconstruct(base_positions_, positions);
       write_constrained(edited_, positions);
     }
     return iterations;

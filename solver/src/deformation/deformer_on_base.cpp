@@ -25,7 +25,6 @@ void Deformer::set_up_on_base(const ProgressCallback& progress) {
   timings_.laplacian_ms += partition_ms;
   timings_.base_ms = multiresolution.ms;
   base_positions_ = multiresolution.base.mesh.positions;
-  reconstruction_workspace_ = multiresolution.encoding.workspace();
   edited_.resize(handle_count());
 }
 

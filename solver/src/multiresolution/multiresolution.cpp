@@ -22,9 +22,8 @@ namespace hdeform {
 namespace {
 
 constexpr std::size_t kVertexGrain = 2048;
-// How far ahead a whole rebuild asks for the memory it will use: triangles (their corners and
-// maps) and fine vertices (their rows). See DetailEncoding::rebuild.
-constexpr Eigen::Index kMapAhead = 16, kRowAhead = 128;
+// A whole rebuild's triangles per task, and how far ahead it asks for their corners.
+constexpr Eigen::Index kTriangleGrain = 512, kCornersAhead = 16;
 
 // A triangle's frame, from its first edge e = b − a and normal n = e × (c − a): columns e/|e|,
 // (n × e)/(|n| |e|), n/|n|. A degenerate triangle's zero column stays zero.
@@ -65,10 +64,9 @@ Eigen::Vector2d closest_point_weights(const Eigen::Vector3d& p, const Eigen::Vec
 }
 
 // What a fine vertex's position takes from its base triangle (a, b, c): the corner a, the edges
-// to b and c, and the frame. A whole rebuild makes it once per base triangle
-// (DetailEncoding::Workspace), so that each of the five or so fine vertices on a triangle costs
-// only a weighted sum: the frame's square roots, divisions and cross products per vertex were
-// most of a rebuild's time.
+// to b and c, and the frame. A whole rebuild makes it once per base triangle, so that each of
+// the five or so fine vertices on a triangle costs only a weighted sum: the frame's square roots,
+// divisions and cross products per vertex were most of a rebuild's time.
 struct FootMap {
   Eigen::Vector3d origin, to_b, to_c;
   Eigen::Matrix3d frame;
@@ -301,9 +299,10 @@ DetailEncoding::DetailEncoding(const Mesh& fine, const BaseMesh& base)
   });
   for (std::size_t v = 0; v < n; ++v) largest_detail_ = std::max(largest_detail_, detail.row(static_cast<Eigen::Index>(v)).norm());
 
-  // The encoding's own triangle order: by first use in fine vertex order, so that a rebuild reads
-  // the foot maps nearly in sequence rather than with a cache miss per vertex (the base's order
-  // follows its collapses, not the fine mesh). Only foot_corners() shows a triangle, by corners.
+  // The encoding's own triangle order: by first use in fine vertex order, so that a rebuild, which
+  // goes triangle by triangle, writes nearby fine vertices one after another rather than all over
+  // (the base's order follows its collapses, not the fine mesh). Only foot_corners() shows a
+  // triangle, by corners.
   std::vector<int> renumbered(static_cast<std::size_t>(base_triangles_.rows()), -1);
   int next = 0;
   for (int& t : foot_triangle_) {
@@ -325,19 +324,32 @@ DetailEncoding::DetailEncoding(const Mesh& fine, const BaseMesh& base)
   // to rounding, so it is a few ulps, which a float holds too), which is checked here. Where a
   // coordinate is near zero it may round; such a vertex keeps both and is rebuilt as
   // rest + (now − rest reconstruction).
-  rows_.resize(n);
+  fine_of_base_ = base.fine_vertex;
+  row_of_fine_.assign(n, -1);
+  const auto triangle_count = static_cast<std::size_t>(base_triangles_.rows());
+  triangle_rows_.assign(triangle_count + 1, 0);
+  std::size_t unreferenced = 0;
   for (std::size_t v = 0; v < n; ++v) {
+    if (base_of_fine_[v] >= 0) continue;
+    if (foot_triangle_[v] < 0) ++unreferenced;
+    else ++triangle_rows_[static_cast<std::size_t>(foot_triangle_[v]) + 1];
+  }
+  std::partial_sum(triangle_rows_.begin(), triangle_rows_.end(), triangle_rows_.begin());
+  std::vector<int> next_row(triangle_rows_.begin(), triangle_rows_.end() - 1);
+  int next_unreferenced = triangle_rows_.back();
+  rows_.resize(static_cast<std::size_t>(triangle_rows_.back()) + unreferenced);
+  for (std::size_t v = 0; v < n; ++v) {
+    if (base_of_fine_[v] >= 0) continue;
     const auto row = static_cast<Eigen::Index>(v);
-    FineRow& entry = rows_[v];
-    if (base_of_fine_[v] >= 0) {
-      entry.foot = -2 - base_of_fine_[v];
-      continue;
-    }
-    if (foot_triangle_[v] < 0) {
+    const int t = foot_triangle_[v];
+    const int index = t < 0 ? next_unreferenced++ : next_row[static_cast<std::size_t>(t)]++;
+    row_of_fine_[v] = index;
+    FineRow& entry = rows_[static_cast<std::size_t>(index)];
+    entry.vertex = static_cast<int>(v);
+    if (t < 0) {
       for (int axis = 0; axis < 3; ++axis) entry.detail[static_cast<std::size_t>(axis)] = fine.positions(row, axis);
       continue;
     }
-    entry.foot = foot_triangle_[v];
     entry.wb = barycentric(row, 0);
     entry.wc = barycentric(row, 1);
     bool exact = true;
@@ -355,33 +367,66 @@ DetailEncoding::DetailEncoding(const Mesh& fine, const BaseMesh& base)
   }
 }
 
-DetailEncoding::Workspace::Workspace() = default;
-DetailEncoding::Workspace::~Workspace() = default;
-DetailEncoding::Workspace::Workspace(Workspace&&) noexcept = default;
-DetailEncoding::Workspace& DetailEncoding::Workspace::operator=(Workspace&&) noexcept = default;
+void DetailEncoding::check_base(const Eigen::MatrixXd& base_positions) const {
+  if (base_positions.rows() != base_count_ || base_positions.cols() != 3) {
+    throw std::invalid_argument("DetailEncoding::reconstruct: the base positions are " + std::to_string(base_positions.rows()) + "×" +
+                                std::to_string(base_positions.cols()) + " for a base of " + std::to_string(base_count_) + " vertices");
+  }
+}
 
-struct DetailEncoding::Workspace::Maps {
-  std::vector<FootMap> of_triangle;
-};
-
-DetailEncoding::Workspace DetailEncoding::workspace() const {
-  Workspace workspace;
-  workspace.maps_ = std::make_unique<Workspace::Maps>();
-  workspace.maps_->of_triangle.resize(static_cast<std::size_t>(base_triangles_.rows()));
-  return workspace;
+// A fine vertex's position from its row and its foot triangle's map: one function for the whole
+// rebuild and the rebuild of some vertices, so both give the same bits.
+template <class Map>
+[[gnu::always_inline]] inline Eigen::Vector3d DetailEncoding::position_of(const FineRow& row, const Map* map) const {
+  if (map == nullptr) return {row.detail[0], row.detail[1], row.detail[2]};
+  const Eigen::Vector3d now = reconstructed(*map, row.wb, row.wc, Eigen::Vector3d(row.detail[0], row.detail[1], row.detail[2]));
+  if (std::isnan(row.correction[0])) {
+    const auto inexact = std::lower_bound(inexact_rest_.begin(), inexact_rest_.end(), row.vertex,
+                                          [](const InexactRest& entry, int vertex) { return entry.vertex < vertex; });
+    return inexact->rest + (now - inexact->rest_reconstruction);
+  }
+  return now + Eigen::Vector3f(row.correction[0], row.correction[1], row.correction[2]).cast<double>();
 }
 
 void DetailEncoding::reconstruct(const Eigen::MatrixXd& base_positions, Eigen::MatrixXd& fine_positions) const {
-  Workspace own = workspace();
-  reconstruct(base_positions, fine_positions, own);
+  check_base(base_positions);
+  fine_positions.resize(fine_count(), 3);
+  const trace::Scope traced("fine mesh from the base", "update");
+  const std::array<double*, 3> column{fine_positions.col(0).data(), fine_positions.col(1).data(), fine_positions.col(2).data()};
+  auto store = [&](int vertex, const Eigen::Vector3d& position) {
+    for (int axis = 0; axis < 3; ++axis) column[static_cast<std::size_t>(axis)][vertex] = position[axis];
+  };
+  auto corner = [&](Eigen::Index t, int k) -> Eigen::Vector3d { return base_positions.row(base_triangles_(t, k)).transpose(); };
+  // Triangle by triangle: its map made once, in registers, for the five or so fine vertices on it
+  // (a table of maps written and read back cost a fifth of the rebuild). The vertices' own rows
+  // come in sequence; their positions go where the vertices are.
+  tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, base_triangles_.rows(), kTriangleGrain), [&](const auto& range) {
+    for (Eigen::Index t = range.begin(); t != range.end(); ++t) {
+      // The corners of the triangles to come are scattered over the base: asked for early.
+      if (t + kCornersAhead < range.end()) {
+        for (int k = 0; k < 3; ++k) {
+          const int u = base_triangles_(t + kCornersAhead, k);
+          for (int axis = 0; axis < 3; ++axis) __builtin_prefetch(&base_positions(u, axis));
+        }
+      }
+      const int first = triangle_rows_[static_cast<std::size_t>(t)], last = triangle_rows_[static_cast<std::size_t>(t) + 1];
+      if (first == last) continue;
+      const FootMap map = foot_map(corner(t, 0), corner(t, 1), corner(t, 2));
+      for (int i = first; i != last; ++i) {
+        const FineRow& row = rows_[static_cast<std::size_t>(i)];
+        store(row.vertex, position_of(row, &map));
+      }
+    }
+  });
+  const auto unreferenced_from = static_cast<std::size_t>(triangle_rows_.back());
+  for (std::size_t i = unreferenced_from; i < rows_.size(); ++i) store(rows_[i].vertex, position_of<FootMap>(rows_[i], nullptr));
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, fine_of_base_.size(), kVertexGrain), [&](const auto& range) {
+    for (std::size_t j = range.begin(); j != range.end(); ++j) store(fine_of_base_[j], base_positions.row(static_cast<Eigen::Index>(j)).transpose());
+  });
 }
 
-void DetailEncoding::reconstruct(const Eigen::MatrixXd& base_positions, Eigen::MatrixXd& fine_positions, Workspace& workspace) const {
-  rebuild(base_positions, fine_positions, workspace, fine_count(), [](Eigen::Index i) { return i; }, true);
-}
-
-void DetailEncoding::reconstruct(const Eigen::MatrixXd& base_positions, Eigen::MatrixXd& fine_positions, Workspace& workspace,
-                                 std::span<const int> vertices) const {
+void DetailEncoding::reconstruct(const Eigen::MatrixXd& base_positions, Eigen::MatrixXd& fine_positions, std::span<const int> vertices) const {
+  check_base(base_positions);
   if (fine_positions.rows() != fine_count() || fine_positions.cols() != 3) {
     throw std::invalid_argument("DetailEncoding::reconstruct: a rebuild of some vertices needs the fine positions (" + std::to_string(fine_count()) +
                                 "×3) to keep the others");
@@ -389,91 +434,25 @@ void DetailEncoding::reconstruct(const Eigen::MatrixXd& base_positions, Eigen::M
   for (const int v : vertices) {
     if (v < 0 || v >= fine_count()) throw std::invalid_argument("DetailEncoding::reconstruct: vertex " + std::to_string(v) + " is not in the fine mesh");
   }
-  rebuild(base_positions, fine_positions, workspace, static_cast<Eigen::Index>(vertices.size()),
-          [&](Eigen::Index i) { return static_cast<Eigen::Index>(vertices[static_cast<std::size_t>(i)]); }, false);
-}
-
-template <class Vertex>
-void DetailEncoding::rebuild(const Eigen::MatrixXd& base_positions, Eigen::MatrixXd& fine_positions, Workspace& workspace, Eigen::Index count,
-                             const Vertex& vertex_at, bool whole) const {
-  if (base_positions.rows() != base_count_ || base_positions.cols() != 3) {
-    throw std::invalid_argument("DetailEncoding::reconstruct: the base positions are " + std::to_string(base_positions.rows()) + "×" +
-                                std::to_string(base_positions.cols()) + " for a base of " + std::to_string(base_count_) + " vertices");
-  }
-  if (!workspace.maps_ || workspace.maps_->of_triangle.size() != static_cast<std::size_t>(base_triangles_.rows())) {
-    throw std::invalid_argument("DetailEncoding::reconstruct: the workspace is sized for another base (DetailEncoding::workspace() makes one)");
-  }
-  if (whole) fine_positions.resize(fine_count(), 3);
-  const trace::Scope traced(whole ? "fine mesh from the base" : "fine mesh from the base, some vertices", "update");
+  const trace::Scope traced("fine mesh from the base, some vertices", "update");
   auto corner = [&](Eigen::Index t, int k) -> Eigen::Vector3d { return base_positions.row(base_triangles_(t, k)).transpose(); };
-  // A few vertices (a proxy's) make their triangles' maps themselves: the same function, the
-  // same bits, without a pass over every base triangle.
-  std::vector<FootMap>& maps = workspace.maps_->of_triangle;
-  if (whole) {
-    tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, base_triangles_.rows(), kVertexGrain), [&](const auto& range) {
-      for (Eigen::Index t = range.begin(); t != range.end(); ++t) {
-        // The corners of the triangles to come are scattered over the base; the maps written
-        // are in order. Both asked for early, as in the rows below.
-        if (t + kMapAhead < range.end()) {
-          for (int k = 0; k < 3; ++k) {
-            const int u = base_triangles_(t + kMapAhead, k);
-            for (int axis = 0; axis < 3; ++axis) __builtin_prefetch(&base_positions(u, axis));
-          }
-          const auto* bytes = reinterpret_cast<const char*>(&maps[static_cast<std::size_t>(t + kMapAhead)]);
-          for (std::size_t line = 0; line < sizeof(FootMap); line += 64) __builtin_prefetch(bytes + line, 1);
-        }
-        maps[static_cast<std::size_t>(t)] = foot_map(corner(t, 0), corner(t, 1), corner(t, 2));
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, vertices.size(), kVertexGrain), [&](const auto& range) {
+    for (std::size_t i = range.begin(); i != range.end(); ++i) {
+      const auto v = static_cast<std::size_t>(vertices[i]);
+      if (const int own = base_of_fine_[v]; own >= 0) {
+        fine_positions.row(vertices[i]) = base_positions.row(own);
+        continue;
       }
-    });
-  }
-  const std::array<double*, 3> column{fine_positions.col(0).data(), fine_positions.col(1).data(), fine_positions.col(2).data()};
-  auto rows = [&](const auto& map_of) {
-    tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, count, kVertexGrain), [&](const auto& range) {
-      for (Eigen::Index i = range.begin(); i != range.end(); ++i) {
-        const Eigen::Index v = vertex_at(i);
-        const FineRow& row = rows_[static_cast<std::size_t>(v)];
-        // The maps lie in the order of first use (see the constructor), so the one needed a few
-        // vertices on is mostly the next or the same; the rows are read in order. Asking for
-        // both early hides the wait that bounded the rebuild.
-        if (whole) {
-          if (i + kMapAhead < range.end()) {
-            const int ahead = rows_[static_cast<std::size_t>(i + kMapAhead)].foot;
-            if (ahead >= 0) {
-              const auto* bytes = reinterpret_cast<const char*>(&maps[static_cast<std::size_t>(ahead)]);
-              for (std::size_t line = 0; line < sizeof(FootMap); line += 64) __builtin_prefetch(bytes + line);
-            }
-          }
-          if (const Eigen::Index later = i + kRowAhead; later < count) {
-            const auto* bytes = reinterpret_cast<const char*>(&rows_[static_cast<std::size_t>(later)]);
-            __builtin_prefetch(bytes);
-            __builtin_prefetch(bytes + sizeof(FineRow) - 1);
-          }
-        }
-        Eigen::Vector3d position;
-        if (row.foot >= 0) {
-          const Eigen::Vector3d now = reconstructed(map_of(row.foot), row.wb, row.wc, Eigen::Vector3d(row.detail[0], row.detail[1], row.detail[2]));
-          if (std::isnan(row.correction[0])) {
-            const auto inexact = std::lower_bound(inexact_rest_.begin(), inexact_rest_.end(), static_cast<int>(v),
-                                                  [](const InexactRest& entry, int vertex) { return entry.vertex < vertex; });
-            position = inexact->rest + (now - inexact->rest_reconstruction);
-          } else {
-            position = now + Eigen::Vector3f(row.correction[0], row.correction[1], row.correction[2]).cast<double>();
-          }
-        } else if (row.foot == -1) {
-          position = Eigen::Vector3d(row.detail[0], row.detail[1], row.detail[2]);
-        } else {
-          position = base_positions.row(-2 - row.foot).transpose();
-        }
-        // Three plain stores: Eigen's row assignment into a column-major matrix is a strided loop.
-        for (int axis = 0; axis < 3; ++axis) column[static_cast<std::size_t>(axis)][v] = position[axis];
+      const FineRow& row = rows_[static_cast<std::size_t>(row_of_fine_[v])];
+      const int t = foot_triangle_[v];
+      if (t < 0) {
+        fine_positions.row(vertices[i]) = position_of<FootMap>(row, nullptr).transpose();
+      } else {
+        const FootMap map = foot_map(corner(t, 0), corner(t, 1), corner(t, 2));
+        fine_positions.row(vertices[i]) = position_of(row, &map).transpose();
       }
-    });
-  };
-  if (whole) {
-    rows([&](int t) -> const FootMap& { return maps[static_cast<std::size_t>(t)]; });
-  } else {
-    rows([&](int t) { return foot_map(corner(t, 0), corner(t, 1), corner(t, 2)); });
-  }
+    }
+  });
 }
 
 Eigen::VectorXd DetailEncoding::interpolate(const Eigen::VectorXd& base_values) const {
@@ -485,7 +464,8 @@ Eigen::VectorXd DetailEncoding::interpolate(const Eigen::VectorXd& base_values) 
     if (base_of_fine_[i] >= 0) fine[v] = base_values[base_of_fine_[i]];
     else if (t < 0) fine[v] = 0.0;
     else {
-      const double wb = rows_[i].wb, wc = rows_[i].wc;
+      const FineRow& row = rows_[static_cast<std::size_t>(row_of_fine_[i])];
+      const double wb = row.wb, wc = row.wc;
       fine[v] = (1.0 - wb - wc) * base_values[base_triangles_(t, 0)] + wb * base_values[base_triangles_(t, 1)] +
                 wc * base_values[base_triangles_(t, 2)];
     }
