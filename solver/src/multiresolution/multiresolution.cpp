@@ -337,31 +337,42 @@ DetailEncoding::DetailEncoding(const Mesh& fine, const BaseMesh& base)
   std::partial_sum(triangle_rows_.begin(), triangle_rows_.end(), triangle_rows_.begin());
   std::vector<int> next_row(triangle_rows_.begin(), triangle_rows_.end() - 1);
   int next_unreferenced = triangle_rows_.back();
-  rows_.resize(static_cast<std::size_t>(triangle_rows_.back()) + unreferenced);
   for (std::size_t v = 0; v < n; ++v) {
     if (base_of_fine_[v] >= 0) continue;
-    const auto row = static_cast<Eigen::Index>(v);
     const int t = foot_triangle_[v];
-    const int index = t < 0 ? next_unreferenced++ : next_row[static_cast<std::size_t>(t)]++;
-    row_of_fine_[v] = index;
-    FineRow& entry = rows_[static_cast<std::size_t>(index)];
-    entry.vertex = static_cast<int>(v);
-    if (t < 0) {
-      for (int axis = 0; axis < 3; ++axis) entry.detail[static_cast<std::size_t>(axis)] = fine.positions(row, axis);
-      continue;
+    row_of_fine_[v] = t < 0 ? next_unreferenced++ : next_row[static_cast<std::size_t>(t)]++;
+  }
+  rows_.resize(static_cast<std::size_t>(triangle_rows_.back()) + unreferenced);
+  std::vector<char> inexact(n, 0);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, kVertexGrain), [&](const auto& range) {
+    for (std::size_t v = range.begin(); v != range.end(); ++v) {
+      if (base_of_fine_[v] >= 0) continue;
+      const auto row = static_cast<Eigen::Index>(v);
+      FineRow& entry = rows_[static_cast<std::size_t>(row_of_fine_[v])];
+      entry.vertex = static_cast<int>(v);
+      if (foot_triangle_[v] < 0) {
+        for (int axis = 0; axis < 3; ++axis) entry.detail[static_cast<std::size_t>(axis)] = fine.positions(row, axis);
+        continue;
+      }
+      entry.wb = barycentric(row, 0);
+      entry.wc = barycentric(row, 1);
+      bool exact = true;
+      for (int axis = 0; axis < 3; ++axis) {
+        const auto a = static_cast<std::size_t>(axis);
+        entry.detail[a] = detail(row, axis);
+        const double difference = fine.positions(row, axis) - rest_reconstruction(row, axis);
+        entry.correction[a] = static_cast<float>(difference);
+        exact = exact && static_cast<double>(entry.correction[a]) == difference && rest_reconstruction(row, axis) + difference == fine.positions(row, axis);
+      }
+      if (!exact) {
+        entry.correction.fill(std::numeric_limits<float>::quiet_NaN());
+        inexact[v] = 1;
+      }
     }
-    entry.wb = barycentric(row, 0);
-    entry.wc = barycentric(row, 1);
-    bool exact = true;
-    for (int axis = 0; axis < 3; ++axis) {
-      const auto a = static_cast<std::size_t>(axis);
-      entry.detail[a] = detail(row, axis);
-      const double difference = fine.positions(row, axis) - rest_reconstruction(row, axis);
-      entry.correction[a] = static_cast<float>(difference);
-      exact = exact && static_cast<double>(entry.correction[a]) == difference && rest_reconstruction(row, axis) + difference == fine.positions(row, axis);
-    }
-    if (!exact) {
-      entry.correction.fill(std::numeric_limits<float>::quiet_NaN());
+  });
+  for (std::size_t v = 0; v < n; ++v) {
+    if (inexact[v] != 0) {
+      const auto row = static_cast<Eigen::Index>(v);
       inexact_rest_.push_back({static_cast<int>(v), fine.positions.row(row).transpose(), rest_reconstruction.row(row).transpose()});
     }
   }
