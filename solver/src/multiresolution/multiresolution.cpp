@@ -388,15 +388,14 @@ void DetailEncoding::check_base(const Eigen::MatrixXd& base_positions) const {
 // A fine vertex's position from its row and its foot triangle's map: one function for the whole
 // rebuild and the rebuild of some vertices, so both give the same bits.
 template <class Map>
-[[gnu::always_inline]] inline Eigen::Vector3d DetailEncoding::position_of(const FineRow& row, const Map* map) const {
-  if (map == nullptr) return {row.detail[0], row.detail[1], row.detail[2]};
-  const Eigen::Vector3d now = reconstructed(*map, row.wb, row.wc, Eigen::Vector3d(row.detail[0], row.detail[1], row.detail[2]));
+[[gnu::always_inline]] inline Eigen::Vector3d DetailEncoding::position_of(const FineRow& row, const Map& map) const {
+  const Eigen::Vector3d now = reconstructed(map, row.wb, row.wc, Eigen::Vector3d(row.detail.data()));
   if (std::isnan(row.correction[0])) {
     const auto inexact = std::lower_bound(inexact_rest_.begin(), inexact_rest_.end(), row.vertex,
                                           [](const InexactRest& entry, int vertex) { return entry.vertex < vertex; });
     return inexact->rest + (now - inexact->rest_reconstruction);
   }
-  return now + Eigen::Vector3f(row.correction[0], row.correction[1], row.correction[2]).cast<double>();
+  return now + Eigen::Vector3f(row.correction.data()).cast<double>();
 }
 
 void DetailEncoding::reconstruct(const Eigen::MatrixXd& base_positions, Eigen::MatrixXd& fine_positions) const {
@@ -425,12 +424,12 @@ void DetailEncoding::reconstruct(const Eigen::MatrixXd& base_positions, Eigen::M
       const FootMap map = foot_map(corner(t, 0), corner(t, 1), corner(t, 2));
       for (int i = first; i != last; ++i) {
         const FineRow& row = rows_[static_cast<std::size_t>(i)];
-        store(row.vertex, position_of(row, &map));
+        store(row.vertex, position_of(row, map));
       }
     }
   });
   const auto unreferenced_from = static_cast<std::size_t>(triangle_rows_.back());
-  for (std::size_t i = unreferenced_from; i < rows_.size(); ++i) store(rows_[i].vertex, position_of<FootMap>(rows_[i], nullptr));
+  for (std::size_t i = unreferenced_from; i < rows_.size(); ++i) store(rows_[i].vertex, Eigen::Vector3d(rows_[i].detail.data()));
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, fine_of_base_.size(), kVertexGrain), [&](const auto& range) {
     for (std::size_t j = range.begin(); j != range.end(); ++j) store(fine_of_base_[j], base_positions.row(static_cast<Eigen::Index>(j)).transpose());
   });
@@ -457,10 +456,9 @@ void DetailEncoding::reconstruct(const Eigen::MatrixXd& base_positions, Eigen::M
       const FineRow& row = rows_[static_cast<std::size_t>(row_of_fine_[v])];
       const int t = foot_triangle_[v];
       if (t < 0) {
-        fine_positions.row(vertices[i]) = position_of<FootMap>(row, nullptr).transpose();
+        fine_positions.row(vertices[i]) = Eigen::RowVector3d(row.detail.data());
       } else {
-        const FootMap map = foot_map(corner(t, 0), corner(t, 1), corner(t, 2));
-        fine_positions.row(vertices[i]) = position_of(row, &map).transpose();
+        fine_positions.row(vertices[i]) = position_of(row, foot_map(corner(t, 0), corner(t, 1), corner(t, 2))).transpose();
       }
     }
   });
