@@ -3,6 +3,8 @@
 #include <tbb/task_arena.h>
 
 #include <algorithm>
+#include <cmath>
+#include <limits>
 #include <span>
 #include <vector>
 #include <stdexcept>
@@ -109,6 +111,47 @@ TEST(TreeFactorization, IsBitIdenticalOnAnyNumberOfThreads) {
   EXPECT_EQ(three_subtrees, 3u);
   EXPECT_EQ(one, two);
   EXPECT_EQ(one, three);
+}
+
+// solve_block at any stride: the plain gathers and the four-lane ones (three or four columns four
+// doubles apart, five to eight eight apart) sum in one order, so every stride gives the bits of
+// the packed block, on one thread and on two; the pad is read but never written (a NaN there
+// stays, and reaches no column).
+TEST(TreeFactorization, EveryStrideGivesTheSameBitsAndLeavesThePadAlone) {
+  const auto matrix = split_matrix();
+  const auto n = matrix.rows();
+  for (const int columns : {1, 2, 3, 4, 5, 7, 8, 9}) {
+    const Eigen::MatrixXd rhs = test::random_matrix(n, columns, 20 + columns);
+    for (const int threads : {1, 2}) {
+      tbb::task_arena arena(threads);
+      arena.execute([&] {
+        SparseCholesky factor;
+        factor.factor(matrix, SolverBackend::Tree);
+        auto solve_at = [&](int stride) {
+          std::vector<double> block(static_cast<std::size_t>(n * stride), std::numeric_limits<double>::quiet_NaN());
+          for (Eigen::Index i = 0; i < n; ++i) {
+            for (int c = 0; c < columns; ++c) block[static_cast<std::size_t>(factor.factor_row()[static_cast<std::size_t>(i)] * stride + c)] = rhs(i, c);
+          }
+          factor.solve_block(block.data(), columns, stride);
+          Eigen::MatrixXd solution(n, columns);
+          for (Eigen::Index i = 0; i < n; ++i) {
+            const auto row = static_cast<std::size_t>(factor.factor_row()[static_cast<std::size_t>(i)] * stride);
+            for (int c = 0; c < columns; ++c) solution(i, c) = block[row + static_cast<std::size_t>(c)];
+            for (int pad = columns; pad < stride; ++pad) EXPECT_TRUE(std::isnan(block[row + static_cast<std::size_t>(pad)])) << columns << " " << stride;
+          }
+          return solution;
+        };
+        const Eigen::MatrixXd packed = solve_at(columns);
+        EXPECT_LE((matrix * packed - rhs).norm(), 1e-10 * rhs.norm()) << columns;
+        for (const int stride : {SparseCholesky::fast_solve_stride(columns), columns + 1, 4, 8, 11}) {
+          if (stride < columns) continue;
+          EXPECT_EQ(solve_at(stride), packed) << columns << " columns at stride " << stride << ", " << threads << " threads";
+        }
+      });
+    }
+  }
+  EXPECT_EQ(SparseCholesky::fast_solve_stride(3), 4);
+  EXPECT_EQ(SparseCholesky::fast_solve_stride(5), 8);
 }
 
 // The top's chains, checked against the tree itself: they partition the top, each climbs from

@@ -79,7 +79,7 @@ void DirichletSystem::solve(Eigen::MatrixXd& values, const Eigen::MatrixXd* sour
   const int columns = static_cast<int>(values.cols());
   const auto rows = free_count();
   if (rows == 0 || columns == 0) return;
-  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> block(rows, columns);
+  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> block(rows, SparseCholesky::fast_solve_stride(columns));
   tbb::parallel_for(Eigen::Index{0}, rows, [&](Eigen::Index row) {
     const int vertex = vertex_of_row_[static_cast<std::size_t>(row)];
     for (int c = 0; c < columns; ++c) {
@@ -87,8 +87,9 @@ void DirichletSystem::solve(Eigen::MatrixXd& values, const Eigen::MatrixXd* sour
       for (const auto& entry : coupling(static_cast<int>(row))) value -= entry.weight * values(entry.vertex, c);
       block(row, c) = value;
     }
+    for (Eigen::Index pad = columns; pad < block.cols(); ++pad) block(row, pad) = 0.0;
   });
-  factor_.solve_block(block.data(), columns, columns);
+  factor_.solve_block(block.data(), columns, static_cast<int>(block.cols()));
   // Back into the column-major values a tile of rows at a time: a row written whole touches a
   // cache line per column, a tile writes each line it touches several times in a row.
   constexpr Eigen::Index kTile = 64;

@@ -362,11 +362,11 @@ void SparseCholesky::solve_block(double* block, int columns, int stride) const {
 Eigen::MatrixXd SparseCholesky::solve(const Eigen::MatrixXd& rhs) const {
   const auto n = size();
   const int columns = static_cast<int>(rhs.cols());
-  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> block(n, columns);
-  for (Eigen::Index i = 0; i < n; ++i) block.row(factor_row()[static_cast<std::size_t>(i)]) = rhs.row(i);
-  solve_block(block.data(), columns, columns);
+  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> block = Eigen::MatrixXd::Zero(n, fast_solve_stride(columns));
+  for (Eigen::Index i = 0; i < n; ++i) block.row(factor_row()[static_cast<std::size_t>(i)]).head(columns) = rhs.row(i);
+  solve_block(block.data(), columns, static_cast<int>(block.cols()));
   Eigen::MatrixXd solution(n, columns);
-  for (Eigen::Index i = 0; i < n; ++i) solution.row(i) = block.row(factor_row()[static_cast<std::size_t>(i)]);
+  for (Eigen::Index i = 0; i < n; ++i) solution.row(i) = block.row(factor_row()[static_cast<std::size_t>(i)]).head(columns);
   return solution;
 }
 
@@ -402,14 +402,15 @@ ColumnBlocks::ColumnBlocks(Eigen::Index rows, int columns, SolveSchedule schedul
     const int width = columns / group_count + (g < columns % group_count ? 1 : 0);
     auto& group = groups_[static_cast<std::size_t>(g)];
     group.columns = width;
-    group.values.assign(static_cast<std::size_t>(rows * width), 0.0);
+    group.stride = SparseCholesky::fast_solve_stride(width);
+    group.values.assign(static_cast<std::size_t>(rows * group.stride), 0.0);
     for (int k = 0; k < width; ++k, ++column) group_of_column_[static_cast<std::size_t>(column)] = {g, k};
   }
 }
 
 void ColumnBlocks::solve_group(const SparseCholesky& factor, int group_index) {
   auto& group = groups_[static_cast<std::size_t>(group_index)];
-  if (group.columns > 0) factor.solve_block(group.values.data(), group.columns, group.columns);
+  if (group.columns > 0) factor.solve_block(group.values.data(), group.columns, group.stride);
 }
 
 void ColumnBlocks::solve(const SparseCholesky& factor) {

@@ -11,49 +11,109 @@
 
 #include <algorithm>
 #include <cstddef>
+#include <cstring>
 #include <span>
 
+#include "hdeform/sparse_cholesky.h"
 #include "hdeform/trace.h"
+#include "../target_clones.h"
 #include "tree_factorization.h"
 
 namespace hdeform::detail {
 
-// Both sweeps sum each unknown's products with two independent partial sums (alternating entry
-// by entry along the row or column): a single running sum would chain every product through the
-// adder's latency. The split is fixed, so the result does not depend on threads.
-inline constexpr int kPartialSums = 2;
+// Both sweeps sum each unknown's products with four independent partial sums (entry i into
+// partial i mod 4, a last odd entry into the first, then (p0 + p2) + (p1 + p3)): a single running
+// sum would chain every product through the adder's latency, and two chains still held the sweeps
+// at the adder. The order is fixed, so the result depends neither on threads nor on which gather
+// below computes it.
+inline constexpr int kPartialSums = 4;
 
-// Σ value[i]·y[index[i]] for i in [0, count), K interleaved columns, into sum[0..K): a gather
-// along a row's columns or a column's rows.
+// Σ value[i]·y[index[i]] for i in [0, count), K interleaved columns `stride` apart, into
+// sum[0..K): a gather along a row's columns or a column's rows.
+// (The gathers are always inlined: each then takes the instruction set of the sweep it is in.)
 template <int K, class T>
-inline void gather(const int* index, const T* value, int count, const double* y, int stride, double* sum) {
+[[gnu::always_inline]] inline void gather(const int* index, const T* value, int count, const double* y, int stride, double* sum) {
   double partial[kPartialSums][K] = {};
-  int i = 0;
-  for (; i + kPartialSums <= count; i += kPartialSums) {
-    for (int s = 0; s < kPartialSums; ++s) {
-      const double l = value[i + s];
-      const double* yi = y + static_cast<std::ptrdiff_t>(index[i + s]) * stride;
-      for (int k = 0; k < K; ++k) partial[s][k] += l * yi[k];
-    }
-  }
-  for (; i < count; ++i) {
+  auto add = [&](int s, int i) {
     const double l = value[i];
     const double* yi = y + static_cast<std::ptrdiff_t>(index[i]) * stride;
-    for (int k = 0; k < K; ++k) partial[0][k] += l * yi[k];
+    for (int k = 0; k < K; ++k) partial[s][k] += l * yi[k];
+  };
+  int i = 0;
+  for (; i + 4 <= count; i += 4) {
+    add(0, i);
+    add(1, i + 1);
+    add(2, i + 2);
+    add(3, i + 3);
   }
-  for (int k = 0; k < K; ++k) sum[k] = partial[0][k] + partial[1][k];
+  if (i + 2 <= count) {
+    add(0, i);
+    add(1, i + 1);
+    i += 2;
+  }
+  if (i < count) add(0, i);
+  for (int k = 0; k < K; ++k) sum[k] = (partial[0][k] + partial[2][k]) + (partial[1][k] + partial[3][k]);
+}
+
+// The same sums for a block whose rows are 4·V doubles apart (a drag's three coordinates and a
+// pad: V = 1), four lanes at a time: one load of a row's four values per entry where the plain
+// gather makes one per column. Each lane's products and sums are the plain gather's, in its order.
+using Lanes4 = double __attribute__((vector_size(32)));
+
+template <int V, class T>
+[[gnu::always_inline]] inline void add_lanes(Lanes4* partial, const int* index, const T* value, int i, const double* y) {
+  const double l = value[i];
+  const double* yi = y + static_cast<std::ptrdiff_t>(index[i]) * (4 * V);
+  for (int v = 0; v < V; ++v) {
+    Lanes4 lanes;
+    std::memcpy(&lanes, yi + 4 * v, sizeof lanes);
+    partial[v] += l * lanes;
+  }
+}
+
+template <int K, int V, class T>
+[[gnu::always_inline]] inline void gather_lanes(const int* index, const T* value, int count, const double* y, double* sum) {
+  static_assert(kPartialSums == 4 && K <= 4 * V);
+  Lanes4 partial[kPartialSums][V] = {};
+  int i = 0;
+  for (; i + 4 <= count; i += 4) {
+    add_lanes<V>(partial[0], index, value, i, y);
+    add_lanes<V>(partial[1], index, value, i + 1, y);
+    add_lanes<V>(partial[2], index, value, i + 2, y);
+    add_lanes<V>(partial[3], index, value, i + 3, y);
+  }
+  if (i + 2 <= count) {
+    add_lanes<V>(partial[0], index, value, i, y);
+    add_lanes<V>(partial[1], index, value, i + 1, y);
+    i += 2;
+  }
+  if (i < count) add_lanes<V>(partial[0], index, value, i, y);
+  for (int v = 0; v < V; ++v) {
+    const Lanes4 total = (partial[0][v] + partial[2][v]) + (partial[1][v] + partial[3][v]);
+    for (int k = 4 * v; k < std::min(K, 4 * v + 4); ++k) sum[k] = total[k - 4 * v];
+  }
+}
+
+// V = 0: the plain gather at `stride`; V > 0: the lanes, rows 4·V apart.
+template <int K, int V, class T>
+[[gnu::always_inline]] inline void gather_products(const int* index, const T* value, int count, const double* y, int stride, double* sum) {
+  if constexpr (V == 0) gather<K>(index, value, count, y, stride, sum);
+  else gather_lanes<K, V>(index, value, count, y, sum);
 }
 
 // Forward sweep L y = b over `columns` (ascending), K interleaved right-hand sides: a gather
-// along row j of L, the diagonal last.
-template <int K, class T>
+// along row j of L, the diagonal last. Compiled for AVX2 and for the baseline (where each
+// four-lane operation is two SSE2 ones); AVX2 alone brings no FMA, so both give the same bits.
+template <int K, int V, class T>
+HDEFORM_TARGET_CLONES("avx2", "default")
 void forward_sweep(const FactorPattern& pattern, const T* value, std::span<const int> columns, double* y, int stride) {
+  if constexpr (V > 0) stride = 4 * V;
   for (const int j : columns) {
     const auto row = static_cast<std::size_t>(j);
     const int first = pattern.row_start[row];
     const int diagonal = pattern.row_start[row + 1] - 1;
     double products[K];
-    gather<K>(pattern.row_column.data() + first, value + first, diagonal - first, y, stride, products);
+    gather_products<K, V>(pattern.row_column.data() + first, value + first, diagonal - first, y, stride, products);
     double* yj = y + static_cast<std::ptrdiff_t>(j) * stride;
     const double inverse_diagonal = 1.0 / static_cast<double>(value[diagonal]);
     for (int k = 0; k < K; ++k) yj[k] = (yj[k] - products[k]) * inverse_diagonal;
@@ -63,14 +123,16 @@ void forward_sweep(const FactorPattern& pattern, const T* value, std::span<const
 // Backward sweep Lᵀ x = y over `columns` (descending): a gather along column j of L (diagonal
 // first), with L's columns stored last to first and each column's rows the end of its
 // supernode's row list.
-template <int K, class T>
+template <int K, int V, class T>
+HDEFORM_TARGET_CLONES("avx2", "default")
 void backward_sweep(const FactorPattern& pattern, const T* value, std::span<const int> columns, double* y, int stride) {
+  if constexpr (V > 0) stride = 4 * V;
   for (auto it = columns.rbegin(); it != columns.rend(); ++it) {
     const int j = *it;
     const T* l = value + pattern.column_begin[static_cast<std::size_t>(j)];
     const auto length = static_cast<int>(pattern.column_length(j));
     double products[K];
-    gather<K>(pattern.column_rows(j) + 1, l + 1, length - 1, y, stride, products);
+    gather_products<K, V>(pattern.column_rows(j) + 1, l + 1, length - 1, y, stride, products);
     double* yj = y + static_cast<std::ptrdiff_t>(j) * stride;
     const double inverse_diagonal = 1.0 / static_cast<double>(l[0]);
     for (int k = 0; k < K; ++k) yj[k] = (yj[k] - products[k]) * inverse_diagonal;
@@ -84,13 +146,18 @@ struct Sweeps {
   void (*forward)(const FactorPattern&, const T*, std::span<const int>, double*, int);
   void (*backward)(const FactorPattern&, const T*, std::span<const int>, double*, int);
 };
-template <int K, class T>
+template <int K, int V, class T>
 constexpr Sweeps<T> sweeps_for() {
-  return {forward_sweep<K, T>, backward_sweep<K, T>};
+  return {forward_sweep<K, V, T>, backward_sweep<K, V, T>};
 }
+// By the number of columns: at any stride, and in lanes (rows four doubles apart for three or four
+// columns, eight for five to eight).
 template <class T>
-inline constexpr Sweeps<T> kSweeps[kMaxKernelColumns] = {sweeps_for<1, T>(), sweeps_for<2, T>(), sweeps_for<3, T>(), sweeps_for<4, T>(),
-                                                         sweeps_for<5, T>(), sweeps_for<6, T>(), sweeps_for<7, T>(), sweeps_for<8, T>()};
+inline constexpr Sweeps<T> kSweeps[kMaxKernelColumns] = {sweeps_for<1, 0, T>(), sweeps_for<2, 0, T>(), sweeps_for<3, 0, T>(), sweeps_for<4, 0, T>(),
+                                                         sweeps_for<5, 0, T>(), sweeps_for<6, 0, T>(), sweeps_for<7, 0, T>(), sweeps_for<8, 0, T>()};
+template <class T>
+inline constexpr Sweeps<T> kLaneSweeps[kMaxKernelColumns] = {sweeps_for<1, 1, T>(), sweeps_for<2, 1, T>(), sweeps_for<3, 1, T>(), sweeps_for<4, 1, T>(),
+                                                             sweeps_for<5, 2, T>(), sweeps_for<6, 2, T>(), sweeps_for<7, 2, T>(), sweeps_for<8, 2, T>()};
 
 enum class Direction { Forward, Backward };
 
@@ -124,7 +191,9 @@ void solve_with_factor(const FactorPattern& pattern, const T* row_value, const T
   // One kernel's columns at a time: the subtrees' sweeps side by side (as in a drag's three or
   // five columns), or, with `side_by_side` false, one after the other on this thread.
   auto solve_columns = [&](int first, bool side_by_side) {
-    const Sweeps<T>& sweeps = kSweeps<T>[std::min(kMaxKernelColumns, columns - first) - 1];
+    const int width = std::min(kMaxKernelColumns, columns - first);
+    const bool lanes = first == 0 && ((stride == 4 && columns >= 3 && columns <= 4) || (stride == 8 && columns > 4 && columns <= 8));
+    const Sweeps<T>& sweeps = lanes ? kLaneSweeps<T>[width - 1] : kSweeps<T>[width - 1];
     double* y = block + first;
     // Each sweep of each part is an event of the trace, on the thread that ran it.
     auto each_subtree = [&](const char* name, auto&& sweep) {

@@ -41,7 +41,13 @@ constexpr double kRotationTolerance = 1e-7;
 constexpr int kPaperFitSteps = 8;
 constexpr int kIterationSteps = 1;
 
-Eigen::Vector3d row3(const std::vector<double>& values, std::size_t row) { return {values[3 * row], values[3 * row + 1], values[3 * row + 2]}; }
+// The per-vertex arrays (positions, right-hand sides, the acceleration's differences) keep x, y, z
+// and a zero pad per row: the layout in which the solve sums a row's three values as one vector.
+constexpr std::size_t kStride = SparseCholesky::fast_solve_stride(3);
+
+Eigen::Vector3d row3(const std::vector<double>& values, std::size_t row) {
+  return {values[kStride * row], values[kStride * row + 1], values[kStride * row + 2]};
+}
 
 }  // namespace
 
@@ -176,17 +182,17 @@ ArapRefinement::ArapRefinement(const Mesh& rest, const CotangentWeights& weights
 
   for (auto& rotations : rotation_) rotations.assign(static_cast<std::size_t>(rotation_count_), Eigen::Matrix3d::Identity());
   paper_rotation_.assign(static_cast<std::size_t>(rotation_count_), Eigen::Matrix3d::Identity());
-  paper_.assign(3 * free_count, 0.0);
+  paper_.assign(kStride * free_count, 0.0);
   field_.assign(static_cast<std::size_t>(rotation_count_), Eigen::Quaterniond::Identity());
   new_field_.assign(static_cast<std::size_t>(rotation_count_), Eigen::Quaterniond::Identity());
-  positions_.assign(3 * vertex_.size(), 0.0);
-  constant_.assign(3 * free_count, 0.0);
-  rhs_.assign(3 * free_count, 0.0);
-  for (auto& column : delta_g_) column.assign(3 * free_count, 0.0);
-  for (auto& column : delta_f_) column.assign(3 * free_count, 0.0);
-  previous_g_.assign(3 * free_count, 0.0);
-  previous_f_.assign(3 * free_count, 0.0);
-  const std::size_t most_chunks = std::max({chunk_count(3 * free_count), chunk_count(vertex_.size()), chunk_count(triangles), std::size_t{1}});
+  positions_.assign(kStride * vertex_.size(), 0.0);
+  constant_.assign(kStride * free_count, 0.0);
+  rhs_.assign(kStride * free_count, 0.0);
+  for (auto& column : delta_g_) column.assign(kStride * free_count, 0.0);
+  for (auto& column : delta_f_) column.assign(kStride * free_count, 0.0);
+  previous_g_.assign(kStride * free_count, 0.0);
+  previous_f_.assign(kStride * free_count, 0.0);
+  const std::size_t most_chunks = std::max({chunk_count(free_count), chunk_count(vertex_.size()), chunk_count(triangles), std::size_t{1}});
   partial_.assign(most_chunks * 2 * kMaxRefinementHistory, 0.0);  // mix() needs two sums per column and chunk
 }
 
@@ -243,20 +249,20 @@ void ArapRefinement::begin(const Eigen::MatrixXd& positions, RefinementStart sta
     rebuild_coefficients();
   }
   for (std::size_t c = free_count; c < vertex_.size(); ++c) {
-    for (int k = 0; k < 3; ++k) positions_[3 * c + static_cast<std::size_t>(k)] = positions(vertex_[c], k);
+    for (int k = 0; k < 3; ++k) positions_[kStride * c + static_cast<std::size_t>(k)] = positions(vertex_[c], k);
   }
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, free_count, 2048), [&](const auto& range) {
     for (std::size_t row = range.begin(); row != range.end(); ++row) {
       Eigen::Vector3d b = Eigen::Vector3d::Zero();
       for (const auto& entry : system_.coupling(static_cast<int>(row))) b.noalias() -= entry.weight * positions.row(entry.vertex).transpose();
-      for (int k = 0; k < 3; ++k) constant_[3 * row + static_cast<std::size_t>(k)] = b(k);
+      for (int k = 0; k < 3; ++k) constant_[kStride * row + static_cast<std::size_t>(k)] = b(k);
     }
   });
 
   // The paper's result with rotations fitted to it: where a start from the paper's result
   // begins, and where a start from the last edit goes on if its first iteration does worse.
   for (std::size_t row = 0; row < free_count; ++row) {
-    for (int k = 0; k < 3; ++k) paper_[3 * row + static_cast<std::size_t>(k)] = positions(vertex_[row], k);
+    for (int k = 0; k < 3; ++k) paper_[kStride * row + static_cast<std::size_t>(k)] = positions(vertex_[row], k);
   }
   std::copy(paper_.begin(), paper_.end(), positions_.begin());
   status_ = RefinementStatus{};
@@ -287,7 +293,7 @@ void ArapRefinement::assemble() {
       for (std::size_t p = local_start_[row]; p < local_start_[row + 1]; ++p) {
         b.noalias() += matrices[static_cast<std::size_t>(local_vertex_[p])] * global_coefficient_[p];
       }
-      for (int k = 0; k < 3; ++k) rhs_[3 * row + static_cast<std::size_t>(k)] = b(k);
+      for (int k = 0; k < 3; ++k) rhs_[kStride * row + static_cast<std::size_t>(k)] = b(k);
     }
   });
   timings_.rhs_ms = milliseconds_since(start);
@@ -295,7 +301,7 @@ void ArapRefinement::assemble() {
 
 void ArapRefinement::solve() {
   const auto start = Clock::now();
-  if (!rhs_.empty()) system_.factor().solve_block(rhs_.data(), 3, 3);
+  if (!rhs_.empty()) system_.factor().solve_block(rhs_.data(), 3, static_cast<int>(kStride));
   timings_.solve_ms = milliseconds_since(start);
 }
 
@@ -311,7 +317,7 @@ double ArapRefinement::largest_plain_step() const {
 
 void ArapRefinement::mix() {
   const auto start = Clock::now();
-  const std::size_t size = rhs_.size();
+  const std::size_t rows = rhs_.size() / kStride;
   double* x = positions_.data();  // the free rows come first: the current state
   const double* g = rhs_.data();
   mixed_ = false;
@@ -341,23 +347,26 @@ void ArapRefinement::mix() {
   const bool accelerate = options_.accelerate && stored_ > 0;
   const int stride = 2 * history;
   const int held = stored_;
-  for_each_chunk(size, [&](std::size_t chunk, std::size_t begin, std::size_t end) {
+  // (The pads stay zero: only the first three values of a row are read and written.)
+  for_each_chunk(rows, [&](std::size_t chunk, std::size_t begin, std::size_t end) {
     double gram[kMaxRefinementHistory] = {}, along[kMaxRefinementHistory] = {};
     double* newest_g = slot >= 0 ? delta_g_[static_cast<std::size_t>(slot)].data() : nullptr;
     double* newest_f = slot >= 0 ? delta_f_[static_cast<std::size_t>(slot)].data() : nullptr;
-    for (std::size_t k = begin; k < end; ++k) {
-      const double f = g[k] - x[k];
-      if (slot >= 0) {
-        newest_g[k] = g[k] - previous_g_[k];
-        newest_f[k] = f - previous_f_[k];
-      }
-      previous_g_[k] = g[k];
-      previous_f_[k] = f;
-      if (accelerate) {
-        for (int j = 0; j < held; ++j) {
-          const double column = delta_f_[static_cast<std::size_t>(j)][k];
-          gram[j] += newest_f[k] * column;
-          along[j] += column * f;
+    for (std::size_t row = begin; row < end; ++row) {
+      for (std::size_t k = kStride * row; k < kStride * row + 3; ++k) {
+        const double f = g[k] - x[k];
+        if (slot >= 0) {
+          newest_g[k] = g[k] - previous_g_[k];
+          newest_f[k] = f - previous_f_[k];
+        }
+        previous_g_[k] = g[k];
+        previous_f_[k] = f;
+        if (accelerate) {
+          for (int j = 0; j < held; ++j) {
+            const double column = delta_f_[static_cast<std::size_t>(j)][k];
+            gram[j] += newest_f[k] * column;
+            along[j] += column * f;
+          }
         }
       }
     }
@@ -373,7 +382,7 @@ void ArapRefinement::mix() {
     timings_.acceleration_ms = milliseconds_since(start);
     return;
   }
-  const std::size_t chunks = chunk_count(size);
+  const std::size_t chunks = chunk_count(rows);
   Eigen::Matrix<double, kMaxRefinementHistory, 1> projection = Eigen::Matrix<double, kMaxRefinementHistory, 1>::Zero();
   for (int j = 0; j < stored_; ++j) {
     double gram = 0.0, along = 0.0;
@@ -403,11 +412,13 @@ void ArapRefinement::mix() {
     timings_.acceleration_ms = milliseconds_since(start);
     return;
   }
-  for_each_chunk(size, [&](std::size_t, std::size_t begin, std::size_t end) {
-    for (std::size_t k = begin; k < end; ++k) {
-      double value = g[k];
-      for (int j = 0; j < m; ++j) value -= theta(j) * delta_g_[static_cast<std::size_t>(j)][k];
-      x[k] = value;
+  for_each_chunk(rows, [&](std::size_t, std::size_t begin, std::size_t end) {
+    for (std::size_t row = begin; row < end; ++row) {
+      for (std::size_t k = kStride * row; k < kStride * row + 3; ++k) {
+        double value = g[k];
+        for (int j = 0; j < m; ++j) value -= theta(j) * delta_g_[static_cast<std::size_t>(j)][k];
+        x[k] = value;
+      }
     }
   });
   mixed_ = true;
@@ -469,7 +480,7 @@ double ArapRefinement::fit_rotations(const std::vector<Eigen::Matrix3d>& start_r
         // A = Σ p cᵀ, entry by entry: nine independent sums (Eigen's 3×3 outer product is slower).
         double a[3][3] = {};
         for (std::size_t p = local_start_[first + k]; p < local_start_[first + k + 1]; ++p) {
-          const double* position = positions_.data() + 3 * static_cast<std::size_t>(local_vertex_[p]);
+          const double* position = positions_.data() + kStride * static_cast<std::size_t>(local_vertex_[p]);
           const Eigen::Vector3d& c = local_coefficient_[p];
           for (int i = 0; i < 3; ++i) {
             for (int j = 0; j < 3; ++j) a[i][j] += position[i] * c[j];
@@ -541,7 +552,7 @@ void ArapRefinement::finish(Eigen::MatrixXd& positions) {
   const auto free_count = static_cast<std::size_t>(system_.free_count());
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, free_count, 4096), [&](const auto& range) {
     for (std::size_t row = range.begin(); row != range.end(); ++row) {
-      for (int k = 0; k < 3; ++k) positions(vertex_[row], k) = positions_[3 * row + static_cast<std::size_t>(k)];
+      for (int k = 0; k < 3; ++k) positions(vertex_[row], k) = positions_[kStride * row + static_cast<std::size_t>(k)];
     }
   });
   ++status_.iterations;

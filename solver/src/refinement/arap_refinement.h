@@ -139,9 +139,9 @@ class ArapRefinement {
   bool consistent_ = false;   // the rotations were fitted to positions_ (not carried over)
   double diagonal_ = 0.0;     // of the rest shape's bounding box (the settle test's unit)
 
-  std::vector<double> positions_;  // compact vertices × 3
-  std::vector<double> constant_;   // free rows × 3: −Σ L_fc x_c
-  std::vector<double> rhs_;        // free rows × 3, becomes the plain step G(x)
+  std::vector<double> positions_;  // compact vertices × 4 (x, y, z, a zero pad)
+  std::vector<double> constant_;   // free rows × 4: −Σ L_fc x_c
+  std::vector<double> rhs_;        // free rows × 4, becomes the plain step G(x)
 
   // Anderson acceleration (Walker and Ni's form): differences of G and of the residual F = G − x.
   std::array<std::vector<double>, kMaxRefinementHistory> delta_g_, delta_f_;
