@@ -21,24 +21,17 @@
 
 namespace hdeform::detail {
 
-// Both sweeps sum each unknown's products with four independent partial sums (entry i into
-// partial i mod 4, a last odd entry into the first, then (p0 + p2) + (p1 + p3)): a single running
+// Both sweeps sum each unknown's products with four independent partial sums: a single running
 // sum would chain every product through the adder's latency, and two chains still held the sweeps
-// at the adder. The order is fixed, so the result depends neither on threads nor on which gather
-// below computes it.
+// at the adder. The order is fixed (below) and the same for any number of columns, so a column's
+// result depends neither on threads, nor on the stride, nor on the columns solved beside it.
 inline constexpr int kPartialSums = 4;
 
-// Σ value[i]·y[index[i]] for i in [0, count), K interleaved columns `stride` apart, into
-// sum[0..K): a gather along a row's columns or a column's rows.
-// (The gathers are always inlined: each then takes the instruction set of the sweep it is in.)
-template <int K, class T>
-[[gnu::always_inline]] inline void gather(const int* index, const T* value, int count, const double* y, int stride, double* sum) {
-  double partial[kPartialSums][K] = {};
-  auto add = [&](int s, int i) {
-    const double l = value[i];
-    const double* yi = y + static_cast<std::ptrdiff_t>(index[i]) * stride;
-    for (int k = 0; k < K; ++k) partial[s][k] += l * yi[k];
-  };
+// Calls add(s, i) for i in [0, count), each entry into partial sum s: entry i into i mod 4, then a
+// last pair into the first two and a last single entry into the first. The caller then totals
+// (p0 + p2) + (p1 + p3). One order for every gather, so that all of them give the same bits.
+template <class Add>
+[[gnu::always_inline]] inline void in_summation_order(int count, Add&& add) {
   int i = 0;
   for (; i + 4 <= count; i += 4) {
     add(0, i);
@@ -52,6 +45,19 @@ template <int K, class T>
     i += 2;
   }
   if (i < count) add(0, i);
+}
+
+// Σ value[i]·y[index[i]] for i in [0, count), K interleaved columns `stride` apart, into
+// sum[0..K): a gather along a row's columns or a column's rows.
+// (The gathers are always inlined: each then takes the instruction set of the sweep it is in.)
+template <int K, class T>
+[[gnu::always_inline]] inline void gather(const int* index, const T* value, int count, const double* y, int stride, double* sum) {
+  double partial[kPartialSums][K] = {};
+  in_summation_order(count, [&](int s, int i) __attribute__((always_inline)) {
+    const double l = value[i];
+    const double* yi = y + static_cast<std::ptrdiff_t>(index[i]) * stride;
+    for (int k = 0; k < K; ++k) partial[s][k] += l * yi[k];
+  });
   for (int k = 0; k < K; ++k) sum[k] = (partial[0][k] + partial[2][k]) + (partial[1][k] + partial[3][k]);
 }
 
@@ -60,34 +66,19 @@ template <int K, class T>
 // gather makes one per column. Each lane's products and sums are the plain gather's, in its order.
 using Lanes4 = double __attribute__((vector_size(32)));
 
-template <int V, class T>
-[[gnu::always_inline]] inline void add_lanes(Lanes4* partial, const int* index, const T* value, int i, const double* y) {
-  const double l = value[i];
-  const double* yi = y + static_cast<std::ptrdiff_t>(index[i]) * (4 * V);
-  for (int v = 0; v < V; ++v) {
-    Lanes4 lanes;
-    std::memcpy(&lanes, yi + 4 * v, sizeof lanes);
-    partial[v] += l * lanes;
-  }
-}
-
 template <int K, int V, class T>
 [[gnu::always_inline]] inline void gather_lanes(const int* index, const T* value, int count, const double* y, double* sum) {
-  static_assert(kPartialSums == 4 && K <= 4 * V);
+  static_assert(K <= 4 * V);
   Lanes4 partial[kPartialSums][V] = {};
-  int i = 0;
-  for (; i + 4 <= count; i += 4) {
-    add_lanes<V>(partial[0], index, value, i, y);
-    add_lanes<V>(partial[1], index, value, i + 1, y);
-    add_lanes<V>(partial[2], index, value, i + 2, y);
-    add_lanes<V>(partial[3], index, value, i + 3, y);
-  }
-  if (i + 2 <= count) {
-    add_lanes<V>(partial[0], index, value, i, y);
-    add_lanes<V>(partial[1], index, value, i + 1, y);
-    i += 2;
-  }
-  if (i < count) add_lanes<V>(partial[0], index, value, i, y);
+  in_summation_order(count, [&](int s, int i) __attribute__((always_inline)) {
+    const double l = value[i];
+    const double* yi = y + static_cast<std::ptrdiff_t>(index[i]) * (4 * V);
+    for (int v = 0; v < V; ++v) {
+      Lanes4 lanes;
+      std::memcpy(&lanes, yi + 4 * v, sizeof lanes);
+      partial[s][v] += l * lanes;
+    }
+  });
   for (int v = 0; v < V; ++v) {
     const Lanes4 total = (partial[0][v] + partial[2][v]) + (partial[1][v] + partial[3][v]);
     for (int k = 4 * v; k < std::min(K, 4 * v + 4); ++k) sum[k] = total[k - 4 * v];
@@ -150,14 +141,15 @@ template <int K, int V, class T>
 constexpr Sweeps<T> sweeps_for() {
   return {forward_sweep<K, V, T>, backward_sweep<K, V, T>};
 }
-// By the number of columns: at any stride, and in lanes (rows four doubles apart for three or four
-// columns, eight for five to eight).
+// By the number of columns: at any stride (1 to 8 columns), and in lanes (3 to 8 columns: rows
+// four doubles apart for three or four, eight for five to eight).
 template <class T>
 inline constexpr Sweeps<T> kSweeps[kMaxKernelColumns] = {sweeps_for<1, 0, T>(), sweeps_for<2, 0, T>(), sweeps_for<3, 0, T>(), sweeps_for<4, 0, T>(),
                                                          sweeps_for<5, 0, T>(), sweeps_for<6, 0, T>(), sweeps_for<7, 0, T>(), sweeps_for<8, 0, T>()};
+inline constexpr int kFewestLaneColumns = 3;
 template <class T>
-inline constexpr Sweeps<T> kLaneSweeps[kMaxKernelColumns] = {sweeps_for<1, 1, T>(), sweeps_for<2, 1, T>(), sweeps_for<3, 1, T>(), sweeps_for<4, 1, T>(),
-                                                             sweeps_for<5, 2, T>(), sweeps_for<6, 2, T>(), sweeps_for<7, 2, T>(), sweeps_for<8, 2, T>()};
+inline constexpr Sweeps<T> kLaneSweeps[kMaxKernelColumns - kFewestLaneColumns + 1] = {
+    sweeps_for<3, 1, T>(), sweeps_for<4, 1, T>(), sweeps_for<5, 2, T>(), sweeps_for<6, 2, T>(), sweeps_for<7, 2, T>(), sweeps_for<8, 2, T>()};
 
 enum class Direction { Forward, Backward };
 
@@ -192,8 +184,8 @@ void solve_with_factor(const FactorPattern& pattern, const T* row_value, const T
   // five columns), or, with `side_by_side` false, one after the other on this thread.
   auto solve_columns = [&](int first, bool side_by_side) {
     const int width = std::min(kMaxKernelColumns, columns - first);
-    const bool lanes = first == 0 && ((stride == 4 && columns >= 3 && columns <= 4) || (stride == 8 && columns > 4 && columns <= 8));
-    const Sweeps<T>& sweeps = lanes ? kLaneSweeps<T>[width - 1] : kSweeps<T>[width - 1];
+    const bool lanes = first == 0 && ((stride == 4 && columns >= kFewestLaneColumns && columns <= 4) || (stride == 8 && columns > 4 && columns <= 8));
+    const Sweeps<T>& sweeps = lanes ? kLaneSweeps<T>[width - kFewestLaneColumns] : kSweeps<T>[width - 1];
     double* y = block + first;
     // Each sweep of each part is an event of the trace, on the thread that ran it.
     auto each_subtree = [&](const char* name, auto&& sweep) {
