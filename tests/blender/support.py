@@ -1,7 +1,9 @@
 """What the Blender tests share. They run inside Blender (blender -b --factory-startup
 --python-exit-code 1 --python tests/blender/test_....py), with hdeform and the add-on importable
 (ctest sets PYTHONPATH), and fail by raising: Blender then exits with 1."""
+import atexit
 import os
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -15,6 +17,14 @@ import hdeform
 
 EXECUTABLE = os.environ.get("HDEFORM_EXECUTABLE", "hdeform")
 SHARED = Path(os.environ.get("HDEFORM_SHARED_MESHES", Path(__file__).resolve().parents[3] / "shared" / "meshes"))
+
+
+def scratch_folder(prefix):
+    """A new folder under the system's temporary one, removed when Blender exits (pass or fail):
+    the tests write meshes of up to 10 MB there."""
+    folder = Path(tempfile.mkdtemp(prefix=prefix))
+    atexit.register(shutil.rmtree, folder, ignore_errors=True)
+    return folder
 
 
 def enable_addon():
@@ -93,7 +103,7 @@ def handle_transform(obj, item):
 
 def cli_edit(obj, fixed, handles, matrices, refine):
     """`hdeform edit` on the mesh as Blender holds it (written as OBJ: %.17g of its float32 values)."""
-    folder = Path(tempfile.mkdtemp(prefix="hdeform-blender-"))
+    folder = scratch_folder("hdeform-blender-")
     positions, triangles = rest_and_triangles(obj)
     hdeform.write_mesh(str(folder / "mesh.obj"), positions, triangles)
     arguments = [EXECUTABLE, "edit", "--mesh", str(folder / "mesh.obj"), "--fixed", str(folder / "fixed.txt"), "--out", str(folder / "out.obj"),

@@ -4,8 +4,6 @@ each frame's shape: a keyframed handle moves the cactus in the rendered pictures
 import os
 import subprocess
 import sys
-import tempfile
-from pathlib import Path
 
 import numpy as np
 
@@ -95,7 +93,7 @@ scene.render.engine = 'CYCLES'
 scene.cycles.samples = 1
 scene.cycles.use_denoising = False
 scene.render.resolution_x = scene.render.resolution_y = 48
-folder = Path(tempfile.mkdtemp(prefix="hdeform-render-"))
+folder = support.scratch_folder("hdeform-render-")
 scene.render.filepath = str(folder / "frame-")
 scene.render.image_settings.file_format = 'PNG'
 scene.frame_set(1)

@@ -2,8 +2,6 @@
 growing level by level. Then the file saved and opened again: moving the handle deforms as
 before, without painting or binding again."""
 import math
-import tempfile
-from pathlib import Path
 
 import numpy as np
 
@@ -65,7 +63,7 @@ expected = support.shape_key(obj).copy()
 empty.location.x -= 0.2
 bpy.context.view_layer.update()
 bpy.ops.hdeform.update(wait=True)
-path = Path(tempfile.mkdtemp(prefix="hdeform-blend-")) / "bar.blend"
+path = support.scratch_folder("hdeform-blend-") / "bar.blend"
 bpy.ops.wm.save_as_mainfile(filepath=str(path))
 bpy.ops.wm.open_mainfile(filepath=str(path))
 support.enable_addon()
