@@ -16,6 +16,7 @@
 
 #include "hdeform/sparse_cholesky.h"
 #include "hdeform/trace.h"
+#include "../lanes.h"
 #include "../target_clones.h"
 #include "tree_factorization.h"
 
@@ -64,7 +65,6 @@ template <int K, class T>
 // The same sums for a block whose rows are 4·V doubles apart (a drag's three coordinates and a
 // pad: V = 1), four lanes at a time: one load of a row's four values per entry where the plain
 // gather makes one per column. Each lane's products and sums are the plain gather's, in its order.
-using Lanes4 = double __attribute__((vector_size(32)));
 
 template <int K, int V, class T>
 [[gnu::always_inline]] inline void gather_lanes(const int* index, const T* value, int count, const double* y, double* sum) {
@@ -75,7 +75,7 @@ template <int K, int V, class T>
     const double* yi = y + static_cast<std::ptrdiff_t>(index[i]) * (4 * V);
     for (int v = 0; v < V; ++v) {
       Lanes4 lanes;
-      std::memcpy(&lanes, yi + 4 * v, sizeof lanes);
+      load_lanes(yi + 4 * v, lanes);
       partial[s][v] += l * lanes;
     }
   });

@@ -14,6 +14,8 @@
 
 #include "hdeform/rotation_fit.h"
 #include "hdeform/stopwatch.h"
+#include "lanes.h"
+#include "target_clones.h"
 
 namespace hdeform::detail {
 namespace {
@@ -47,6 +49,57 @@ constexpr std::size_t kStride = SparseCholesky::fast_solve_stride(3);
 
 Eigen::Vector3d row3(const std::vector<double>& values, std::size_t row) {
   return {values[kStride * row], values[kStride * row + 1], values[kStride * row + 2]};
+}
+
+static_assert(kStride == 4, "the gathers below load a row of positions as four lanes");
+
+// The local step's matrices A_i = Σ_v p'_v k_ivᵀ of the rotation vertices [first, first + count):
+// a column of A per vector, the rows of positions (x, y, z, pad) in the lanes. Each entry is the
+// sum of its products in pair order, as a scalar loop would add them.
+HDEFORM_TARGET_CLONES("avx2", "default")
+void gather_covariances(const std::size_t* pair_start, const int* pair_vertex, const Eigen::Vector3d* coefficient, const double* positions,
+                        std::size_t first, std::size_t count, Eigen::Matrix3d* covariance) {
+  for (std::size_t k = 0; k < count; ++k) {
+    Lanes4 column[3] = {};
+    for (std::size_t p = pair_start[first + k]; p < pair_start[first + k + 1]; ++p) {
+      Lanes4 position;
+      load_lanes(positions + kStride * static_cast<std::size_t>(pair_vertex[p]), position);
+      const double* c = coefficient[p].data();
+      column[0] += position * c[0];
+      column[1] += position * c[1];
+      column[2] += position * c[2];
+    }
+    double* out = covariance[k].data();  // column-major
+    for (int j = 0; j < 3; ++j) {
+      for (int i = 0; i < 3; ++i) out[3 * j + i] = column[j][i];
+    }
+  }
+}
+
+// The global step's right-hand sides b_i = c_i + Σ_v R_v m_iv of the rows [begin, end), a row per
+// vector: R_v's columns (column-major, so three overlapping loads) times m_iv's entries. The pad
+// lane stays zero.
+HDEFORM_TARGET_CLONES("avx2", "default")
+void gather_rotated(const std::size_t* pair_start, const int* pair_vertex, const Eigen::Vector3d* coefficient, const Eigen::Matrix3d* rotations,
+                    const double* constant, std::size_t begin, std::size_t end, double* rhs) {
+  const Lanes4 zero = {};
+  for (std::size_t row = begin; row < end; ++row) {
+    Lanes4 b;
+    load_lanes(constant + kStride * row, b);
+    for (std::size_t p = pair_start[row]; p < pair_start[row + 1]; ++p) {
+      const double* r = rotations[static_cast<std::size_t>(pair_vertex[p])].data();
+      Lanes4 first_two, second_two, last;
+      load_lanes(r, first_two);   // R(·,0), R(0,1)
+      load_lanes(r + 3, second_two);  // R(·,1), R(0,2)
+      load_lanes(r + 5, last);    // R(2,1), R(·,2)
+      const Lanes4 column0 = __builtin_shuffle(first_two, zero, LaneBits4{0, 1, 2, 4});
+      const Lanes4 column1 = __builtin_shuffle(second_two, zero, LaneBits4{0, 1, 2, 4});
+      const Lanes4 column2 = __builtin_shuffle(last, zero, LaneBits4{1, 2, 3, 4});
+      const double* m = coefficient[p].data();
+      b += (column0 * m[0] + column1 * m[1]) + column2 * m[2];
+    }
+    store_lanes(b, rhs + kStride * row);
+  }
 }
 
 }  // namespace
@@ -188,10 +241,10 @@ ArapRefinement::ArapRefinement(const Mesh& rest, const CotangentWeights& weights
   positions_.assign(kStride * vertex_.size(), 0.0);
   constant_.assign(kStride * free_count, 0.0);
   rhs_.assign(kStride * free_count, 0.0);
-  for (auto& column : delta_g_) column.assign(kStride * free_count, 0.0);
-  for (auto& column : delta_f_) column.assign(kStride * free_count, 0.0);
-  previous_g_.assign(kStride * free_count, 0.0);
-  previous_f_.assign(kStride * free_count, 0.0);
+  for (auto& column : delta_g_) column.assign(3 * free_count, 0.0);
+  for (auto& column : delta_f_) column.assign(3 * free_count, 0.0);
+  previous_g_.assign(3 * free_count, 0.0);
+  previous_f_.assign(3 * free_count, 0.0);
   const std::size_t most_chunks = std::max({chunk_count(free_count), chunk_count(vertex_.size()), chunk_count(triangles), std::size_t{1}});
   partial_.assign(most_chunks * 2 * kMaxRefinementHistory, 0.0);  // mix() needs two sums per column and chunk
 }
@@ -288,13 +341,8 @@ void ArapRefinement::assemble() {
   const auto start = Clock::now();
   const auto& matrices = rotation_[static_cast<std::size_t>(current_)];
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, static_cast<std::size_t>(system_.free_count()), 1024), [&](const auto& range) {
-    for (std::size_t row = range.begin(); row != range.end(); ++row) {
-      Eigen::Vector3d b = row3(constant_, row);
-      for (std::size_t p = local_start_[row]; p < local_start_[row + 1]; ++p) {
-        b.noalias() += matrices[static_cast<std::size_t>(local_vertex_[p])] * global_coefficient_[p];
-      }
-      for (int k = 0; k < 3; ++k) rhs_[kStride * row + static_cast<std::size_t>(k)] = b(k);
-    }
+    gather_rotated(local_start_.data(), local_vertex_.data(), global_coefficient_.data(), matrices.data(), constant_.data(), range.begin(),
+                   range.end(), rhs_.data());
   });
   timings_.rhs_ms = milliseconds_since(start);
 }
@@ -347,24 +395,26 @@ void ArapRefinement::mix() {
   const bool accelerate = options_.accelerate && stored_ > 0;
   const int stride = 2 * history;
   const int held = stored_;
-  // (The pads stay zero: only the first three values of a row are read and written.)
+  // x and g have rows of four (the pads stay zero: only the first three values of a row are read
+  // and written); the history, which no solve reads, has rows of three: fewer bytes to stream.
   for_each_chunk(rows, [&](std::size_t chunk, std::size_t begin, std::size_t end) {
     double gram[kMaxRefinementHistory] = {}, along[kMaxRefinementHistory] = {};
     double* newest_g = slot >= 0 ? delta_g_[static_cast<std::size_t>(slot)].data() : nullptr;
     double* newest_f = slot >= 0 ? delta_f_[static_cast<std::size_t>(slot)].data() : nullptr;
     for (std::size_t row = begin; row < end; ++row) {
-      for (std::size_t k = kStride * row; k < kStride * row + 3; ++k) {
+      for (std::size_t c = 0; c < 3; ++c) {
+        const std::size_t k = kStride * row + c, h = 3 * row + c;
         const double f = g[k] - x[k];
         if (slot >= 0) {
-          newest_g[k] = g[k] - previous_g_[k];
-          newest_f[k] = f - previous_f_[k];
+          newest_g[h] = g[k] - previous_g_[h];
+          newest_f[h] = f - previous_f_[h];
         }
-        previous_g_[k] = g[k];
-        previous_f_[k] = f;
+        previous_g_[h] = g[k];
+        previous_f_[h] = f;
         if (accelerate) {
           for (int j = 0; j < held; ++j) {
-            const double column = delta_f_[static_cast<std::size_t>(j)][k];
-            gram[j] += newest_f[k] * column;
+            const double column = delta_f_[static_cast<std::size_t>(j)][h];
+            gram[j] += newest_f[h] * column;
             along[j] += column * f;
           }
         }
@@ -414,9 +464,10 @@ void ArapRefinement::mix() {
   }
   for_each_chunk(rows, [&](std::size_t, std::size_t begin, std::size_t end) {
     for (std::size_t row = begin; row < end; ++row) {
-      for (std::size_t k = kStride * row; k < kStride * row + 3; ++k) {
+      for (std::size_t c = 0; c < 3; ++c) {
+        const std::size_t k = kStride * row + c, h = 3 * row + c;
         double value = g[k];
-        for (int j = 0; j < m; ++j) value -= theta(j) * delta_g_[static_cast<std::size_t>(j)][k];
+        for (int j = 0; j < m; ++j) value -= theta(j) * delta_g_[static_cast<std::size_t>(j)][h];
         x[k] = value;
       }
     }
@@ -476,20 +527,7 @@ double ArapRefinement::fit_rotations(const std::vector<Eigen::Matrix3d>& start_r
     std::array<RotationFit, kBlock> fits;
     for (std::size_t first = begin; first < end; first += kBlock) {
       const std::size_t block = std::min(kBlock, end - first);
-      for (std::size_t k = 0; k < block; ++k) {
-        // A = Σ p cᵀ, entry by entry: nine independent sums (Eigen's 3×3 outer product is slower).
-        double a[3][3] = {};
-        for (std::size_t p = local_start_[first + k]; p < local_start_[first + k + 1]; ++p) {
-          const double* position = positions_.data() + kStride * static_cast<std::size_t>(local_vertex_[p]);
-          const Eigen::Vector3d& c = local_coefficient_[p];
-          for (int i = 0; i < 3; ++i) {
-            for (int j = 0; j < 3; ++j) a[i][j] += position[i] * c[j];
-          }
-        }
-        for (int i = 0; i < 3; ++i) {
-          for (int j = 0; j < 3; ++j) covariance[k](i, j) = a[i][j];
-        }
-      }
+      gather_covariances(local_start_.data(), local_vertex_.data(), local_coefficient_.data(), positions_.data(), first, block, covariance.data());
       hdeform::fit_rotations(std::span(covariance.data(), block), std::span(start_rotations.data() + first, block), std::span(fits.data(), block),
                              kRotationTolerance, steps);
       for (std::size_t k = 0; k < block; ++k) {

@@ -143,7 +143,8 @@ class ArapRefinement {
   std::vector<double> constant_;   // free rows × 4: −Σ L_fc x_c
   std::vector<double> rhs_;        // free rows × 4, becomes the plain step G(x)
 
-  // Anderson acceleration (Walker and Ni's form): differences of G and of the residual F = G − x.
+  // Anderson acceleration (Walker and Ni's form): differences of G and of the residual F = G − x,
+  // free rows × 3 (x, y, z: no solve reads them, so no pad).
   std::array<std::vector<double>, kMaxRefinementHistory> delta_g_, delta_f_;
   std::vector<double> previous_g_, previous_f_;
   Eigen::Matrix<double, kMaxRefinementHistory, kMaxRefinementHistory> gram_;

@@ -6,6 +6,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "lanes.h"
 #include "target_clones.h"
 
 namespace hdeform {
@@ -18,11 +19,11 @@ namespace {
 // change, never told what its neighbours did. So a fit is the same bits alone or in any group, on
 // any number of threads, and (without FMA, which neither the portable build nor the AVX2 clone
 // below enables) on any x86-64 machine.
-using Lanes = double __attribute__((vector_size(32)));
+using Lanes = detail::Lanes4;
 // The lanes' helpers are inlined into their callers, so that the AVX2 clone below compiles them
 // for AVX2 (a call would run them as compiled for the baseline).
 #define HDEFORM_LANE_INLINE [[gnu::always_inline]] inline  // #undef at the end of the file
-using LaneMask = long __attribute__((vector_size(32)));
+using LaneMask = detail::LaneBits4;
 constexpr int kLanes = 4;
 
 template <class T>
