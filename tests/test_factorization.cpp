@@ -120,7 +120,8 @@ TEST(TreeFactorization, IsBitIdenticalOnAnyNumberOfThreads) {
 TEST(TreeFactorization, EveryStrideGivesTheSameBitsAndLeavesThePadAlone) {
   const auto matrix = split_matrix();
   const auto n = matrix.rows();
-  for (const int columns : {1, 2, 3, 4, 5, 7, 8, 9}) {
+  // (11, 13, 19: a last kernel of three, five or three columns, in lanes where the row has room.)
+  for (const int columns : {1, 2, 3, 4, 5, 7, 8, 9, 11, 13, 19}) {
     const Eigen::MatrixXd rhs = test::random_matrix(n, columns, 20 + columns);
     for (const int threads : {1, 2}) {
       tbb::task_arena arena(threads);
@@ -143,7 +144,7 @@ TEST(TreeFactorization, EveryStrideGivesTheSameBitsAndLeavesThePadAlone) {
         };
         const Eigen::MatrixXd packed = solve_at(columns);
         EXPECT_LE((matrix * packed - rhs).norm(), 1e-10 * rhs.norm()) << columns;
-        for (const int stride : {SparseCholesky::fast_solve_stride(columns), columns + 1, 4, 8, 11}) {
+        for (const int stride : {SparseCholesky::fast_solve_stride(columns), columns + 1, 4, 8, 11, 16, 24}) {
           if (stride < columns) continue;
           EXPECT_EQ(solve_at(stride), packed) << columns << " columns at stride " << stride << ", " << threads << " threads";
         }
@@ -152,6 +153,10 @@ TEST(TreeFactorization, EveryStrideGivesTheSameBitsAndLeavesThePadAlone) {
   }
   EXPECT_EQ(SparseCholesky::fast_solve_stride(3), 4);
   EXPECT_EQ(SparseCholesky::fast_solve_stride(5), 8);
+  EXPECT_EQ(SparseCholesky::fast_solve_stride(11), 12);
+  EXPECT_EQ(SparseCholesky::fast_solve_stride(13), 16);
+  EXPECT_EQ(SparseCholesky::fast_solve_stride(55), 56);
+  for (const int unpadded : {1, 2, 4, 8, 9, 10, 12, 124}) EXPECT_EQ(SparseCholesky::fast_solve_stride(unpadded), unpadded);
 }
 
 // The top's chains, checked against the tree itself: they partition the top, each climbs from

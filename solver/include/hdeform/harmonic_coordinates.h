@@ -31,14 +31,15 @@ class VertexCoordinates {
   /// The number of vertices of the mesh.
   Eigen::Index vertex_count() const { return static_cast<Eigen::Index>(row_of_vertex_.size()); }
   /// k, the number of markers.
-  int columns() const { return static_cast<int>(free_.cols()); }
+  int columns() const { return columns_; }
   /// Vertex v's coordinates; `buffer` (columns() doubles) holds them for a constrained vertex.
   const double* row(int v, double* buffer) const;
   /// A triangle's coordinates, the mean of its corners', into `out`; `scratch`: 3 × columns().
   void triangle_row(const Eigen::MatrixXi& triangles, Eigen::Index t, double* out, double* scratch) const;
 
  private:
-  CoordinateRows free_;
+  CoordinateRows free_;  ///< free rows × SparseCholesky::fast_solve_stride(columns_): the first columns_ of a row are its values
+  int columns_ = 0;
   std::vector<int> row_of_vertex_;  ///< −1 for a constrained vertex
   std::vector<int> marker_of_;      ///< its marker, −1 for a stray one
   double stray_value_ = 0.0;

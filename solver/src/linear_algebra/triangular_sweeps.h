@@ -62,43 +62,51 @@ template <int K, class T>
   for (int k = 0; k < K; ++k) sum[k] = (partial[0][k] + partial[2][k]) + (partial[1][k] + partial[3][k]);
 }
 
-// The same sums for a block whose rows are 4·V doubles apart (a drag's three coordinates and a
-// pad: V = 1), four lanes at a time: one load of a row's four values per entry where the plain
-// gather makes one per column. Each lane's products and sums are the plain gather's, in its order.
-
+// The same sums four lanes at a time: one load of four consecutive values of a row per entry where
+// the plain gather makes one per column, V loads for up to 4·V columns. The lanes beyond the K
+// columns are read and never written (a pad, or columns nobody writes meanwhile). Each lane's
+// products and sums are the plain gather's, in its order.
 template <int K, int V, class T>
-[[gnu::always_inline]] inline void gather_lanes(const int* index, const T* value, int count, const double* y, double* sum) {
+[[gnu::always_inline]] inline void gather_lanes(const int* index, const T* value, int count, const double* y, int stride, double* sum) {
+  static_assert(V == 1 || V == 2);
   static_assert(K <= 4 * V);
-  Lanes4 partial[kPartialSums][V] = {};
+  // The partial sums of a row's first and second four values in two arrays, not one: GCC keeps an
+  // array of four vectors in registers, while one of eight lived on the stack, cleared for every
+  // row, and took five to eight columns twice as long as four.
+  Lanes4 first[kPartialSums] = {}, second[kPartialSums] = {};
   in_summation_order(count, [&](int s, int i) __attribute__((always_inline)) {
     const double l = value[i];
-    const double* yi = y + static_cast<std::ptrdiff_t>(index[i]) * (4 * V);
-    for (int v = 0; v < V; ++v) {
-      Lanes4 lanes;
-      load_lanes(yi + 4 * v, lanes);
-      partial[s][v] += l * lanes;
+    const double* yi = y + static_cast<std::ptrdiff_t>(index[i]) * stride;
+    Lanes4 lanes;
+    load_lanes(yi, lanes);
+    first[s] += l * lanes;
+    if constexpr (V == 2) {
+      load_lanes(yi + 4, lanes);
+      second[s] += l * lanes;
     }
   });
-  for (int v = 0; v < V; ++v) {
-    const Lanes4 total = (partial[0][v] + partial[2][v]) + (partial[1][v] + partial[3][v]);
-    for (int k = 4 * v; k < std::min(K, 4 * v + 4); ++k) sum[k] = total[k - 4 * v];
+  const Lanes4 total = (first[0] + first[2]) + (first[1] + first[3]);
+  for (int k = 0; k < std::min(K, 4); ++k) sum[k] = total[k];
+  if constexpr (V == 2) {
+    const Lanes4 rest = (second[0] + second[2]) + (second[1] + second[3]);
+    for (int k = 4; k < K; ++k) sum[k] = rest[k - 4];
   }
 }
 
-// V = 0: the plain gather at `stride`; V > 0: the lanes, rows 4·V apart.
+// V = 0: the plain gather; V > 0: the lanes.
 template <int K, int V, class T>
 [[gnu::always_inline]] inline void gather_products(const int* index, const T* value, int count, const double* y, int stride, double* sum) {
   if constexpr (V == 0) gather<K>(index, value, count, y, stride, sum);
-  else gather_lanes<K, V>(index, value, count, y, sum);
+  else gather_lanes<K, V>(index, value, count, y, stride, sum);
 }
 
 // Forward sweep L y = b over `columns` (ascending), K interleaved right-hand sides: a gather
 // along row j of L, the diagonal last. Compiled for AVX2 and for the baseline (where each
 // four-lane operation is two SSE2 ones); AVX2 alone brings no FMA, so both give the same bits.
+// V: the gather's vectors per row (0: the plain gather).
 template <int K, int V, class T>
 HDEFORM_TARGET_CLONES("avx2", "default")
 void forward_sweep(const FactorPattern& pattern, const T* value, std::span<const int> columns, double* y, int stride) {
-  if constexpr (V > 0) stride = 4 * V;
   for (const int j : columns) {
     const auto row = static_cast<std::size_t>(j);
     const int first = pattern.row_start[row];
@@ -117,7 +125,6 @@ void forward_sweep(const FactorPattern& pattern, const T* value, std::span<const
 template <int K, int V, class T>
 HDEFORM_TARGET_CLONES("avx2", "default")
 void backward_sweep(const FactorPattern& pattern, const T* value, std::span<const int> columns, double* y, int stride) {
-  if constexpr (V > 0) stride = 4 * V;
   for (auto it = columns.rbegin(); it != columns.rend(); ++it) {
     const int j = *it;
     const T* l = value + pattern.column_begin[static_cast<std::size_t>(j)];
@@ -141,8 +148,8 @@ template <int K, int V, class T>
 constexpr Sweeps<T> sweeps_for() {
   return {forward_sweep<K, V, T>, backward_sweep<K, V, T>};
 }
-// By the number of columns: at any stride (1 to 8 columns), and in lanes (3 to 8 columns: rows
-// four doubles apart for three or four, eight for five to eight).
+// By the number of columns: the plain gather (1 to 8 columns), and the lanes (3 to 8 columns: one
+// vector per row for three or four, two for five to eight).
 template <class T>
 inline constexpr Sweeps<T> kSweeps[kMaxKernelColumns] = {sweeps_for<1, 0, T>(), sweeps_for<2, 0, T>(), sweeps_for<3, 0, T>(), sweeps_for<4, 0, T>(),
                                                          sweeps_for<5, 0, T>(), sweeps_for<6, 0, T>(), sweeps_for<7, 0, T>(), sweeps_for<8, 0, T>()};
@@ -184,7 +191,11 @@ void solve_with_factor(const FactorPattern& pattern, const T* row_value, const T
   // five columns), or, with `side_by_side` false, one after the other on this thread.
   auto solve_columns = [&](int first, bool side_by_side) {
     const int width = std::min(kMaxKernelColumns, columns - first);
-    const bool lanes = first == 0 && ((stride == 4 && columns >= kFewestLaneColumns && columns <= 4) || (stride == 8 && columns > 4 && columns <= 8));
+    // Lanes read four or eight values of a row from the kernel's first column: its own columns,
+    // and for the last kernel, whose width may be less, the block's pad after the last column,
+    // which nobody writes (so kernels side by side never read what another writes).
+    const int lane_span = width <= 4 ? 4 : 8;
+    const bool lanes = width >= kFewestLaneColumns && first + lane_span <= stride;
     const Sweeps<T>& sweeps = lanes ? kLaneSweeps<T>[width - kFewestLaneColumns] : kSweeps<T>[width - 1];
     double* y = block + first;
     // Each sweep of each part is an event of the trace, on the thread that ran it.

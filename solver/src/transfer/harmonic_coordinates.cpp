@@ -12,11 +12,14 @@ constexpr Eigen::Index kRowGrain = 256;
 VertexCoordinates::VertexCoordinates(const DirichletSystem& system, const VertexPartition& partition, std::span<const int> markers)
     : row_of_vertex_(system.row_of_vertex()), marker_of_(partition.role.size(), -1) {
   const auto k = static_cast<Eigen::Index>(markers.size());
+  columns_ = static_cast<int>(k);
   for (Eigen::Index j = 0; j < k; ++j) marker_of_[static_cast<std::size_t>(markers[static_cast<std::size_t>(j)])] = static_cast<int>(j);
   stray_value_ = 1.0 / static_cast<double>(k);
   // Right-hand side −L_fc X_c, each column summed over the coupling in its order (as
   // DirichletSystem::solve sums it).
-  free_.resize(system.free_count(), k);  // first written by the threads below: its pages faulted in on both cores
+  // Rows padded to the solve's fastest stride (the pad stays zero). First written by the threads
+  // below: its pages faulted in on both cores.
+  free_.resize(system.free_count(), SparseCholesky::fast_solve_stride(columns_));
   tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, system.free_count(), kRowGrain), [&](const tbb::blocked_range<Eigen::Index>& range) {
     for (Eigen::Index r = range.begin(); r != range.end(); ++r) {
       auto values = free_.row(r);
@@ -30,7 +33,7 @@ VertexCoordinates::VertexCoordinates(const DirichletSystem& system, const Vertex
       }
     }
   });
-  if (system.free_count() > 0 && k > 0) system.factor().solve_block(free_.data(), static_cast<int>(k), static_cast<int>(k));
+  if (system.free_count() > 0 && k > 0) system.factor().solve_block(free_.data(), columns_, static_cast<int>(free_.cols()));
   tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, system.free_count(), kRowGrain), [&](const tbb::blocked_range<Eigen::Index>& range) {
     auto rows = free_.middleRows(range.begin(), range.size());
     rows = rows.cwiseMax(0.0).cwiseMin(1.0);
@@ -39,7 +42,7 @@ VertexCoordinates::VertexCoordinates(const DirichletSystem& system, const Vertex
 
 const double* VertexCoordinates::row(int v, double* buffer) const {
   if (const int r = row_of_vertex_[static_cast<std::size_t>(v)]; r >= 0) return free_.row(r).data();
-  const auto k = free_.cols();
+  const Eigen::Index k = columns_;
   if (const int marker = marker_of_[static_cast<std::size_t>(v)]; marker >= 0) {
     std::fill(buffer, buffer + k, 0.0);
     buffer[marker] = 1.0;
@@ -50,7 +53,7 @@ const double* VertexCoordinates::row(int v, double* buffer) const {
 }
 
 void VertexCoordinates::triangle_row(const Eigen::MatrixXi& triangles, Eigen::Index t, double* out, double* scratch) const {
-  const auto k = free_.cols();
+  const Eigen::Index k = columns_;
   const double* a = row(triangles(t, 0), scratch);
   const double* b = row(triangles(t, 1), scratch + k);
   const double* c = row(triangles(t, 2), scratch + 2 * k);
