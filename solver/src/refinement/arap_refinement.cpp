@@ -92,9 +92,9 @@ void gather_rotated(const std::size_t* pair_start, const int* pair_vertex, const
       load_lanes(r, first_two);   // R(·,0), R(0,1)
       load_lanes(r + 3, second_two);  // R(·,1), R(0,2)
       load_lanes(r + 5, last);    // R(2,1), R(·,2)
-      const Lanes4 column0 = __builtin_shuffle(first_two, zero, LaneBits4{0, 1, 2, 4});
-      const Lanes4 column1 = __builtin_shuffle(second_two, zero, LaneBits4{0, 1, 2, 4});
-      const Lanes4 column2 = __builtin_shuffle(last, zero, LaneBits4{1, 2, 3, 4});
+      const Lanes4 column0 = __builtin_shufflevector(first_two, zero, 0, 1, 2, 4);
+      const Lanes4 column1 = __builtin_shufflevector(second_two, zero, 0, 1, 2, 4);
+      const Lanes4 column2 = __builtin_shufflevector(last, zero, 1, 2, 3, 4);
       const double* m = coefficient[p].data();
       b += (column0 * m[0] + column1 * m[1]) + column2 * m[2];
     }
