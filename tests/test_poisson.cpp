@@ -35,6 +35,31 @@ TEST(BlendMaps, TableTrigonometryMatchesTheDirectRotation) {
   }
 }
 
+// The maps are computed four triangles at a time, a short last group padded: each triangle must
+// get the bits it gets alone (a group of one), wherever it falls in a group.
+TEST(BlendMaps, FourAtATimeGiveTheBitsOfOneAtATime) {
+  std::mt19937 random(4);
+  std::uniform_real_distribution<double> uniform(0.0, 1.0);
+  Eigen::VectorXd h(2003);  // 500 groups of four and a group of three
+  for (Eigen::Index t = 0; t < h.size(); ++t) h(t) = uniform(random);
+  // The ends of the range, and values a rounding beyond them (barycentric means of 0 and 1).
+  h(0) = 0.0;
+  h(5) = 1.0;
+  h(10) = 1.0 + 2e-16;
+  h(15) = -1e-17;
+  h(2002) = 1.0;
+  const auto handle = HandleTransform::about_pivot(Eigen::Vector3d(0.3, 0.4, -0.5).normalized(), Eigen::Vector3d::Zero(), 2.2, 0.8);
+  AxialMaps together, alone;
+  sample_blend_maps(h, handle, together);
+  ASSERT_EQ(together.coefficients.size(), static_cast<std::size_t>(h.size()));
+  Eigen::VectorXd one(1);
+  for (Eigen::Index t = 0; t < h.size(); ++t) {
+    one(0) = h(t);
+    sample_blend_maps(one, handle, alone);
+    ASSERT_EQ(together.coefficients[static_cast<std::size_t>(t)], alone.coefficients[0]) << "triangle " << t << ", h = " << h(t);
+  }
+}
+
 TEST(PoissonAssembler, AxialAndMatrixMapsGiveTheSameRightHandSide) {
   auto shape = make_shape(ShapeKind::Cactus, 32);
   const auto weights = cotangent_weights(shape.mesh);

@@ -5,6 +5,9 @@
 #include <algorithm>
 #include <cmath>
 
+#include "lanes.h"
+#include "target_clones.h"
+
 namespace hdeform {
 namespace {
 
@@ -14,6 +17,48 @@ Eigen::Quaterniond unit_or_identity(const Eigen::Vector4d& wxyz) {
   const double norm = wxyz.norm();
   if (!(norm > 1e-12)) return Eigen::Quaterniond::Identity();
   return Eigen::Quaterniond(wxyz(0) / norm, wxyz(1) / norm, wxyz(2) / norm, wxyz(3) / norm);
+}
+
+// The angle table of sample_blend_maps: (cos, sin) pairs at `intervals` + 1 angles `step` apart.
+struct BlendTable {
+  const Eigen::Vector2d* cos_sin;
+  double intervals;
+  double step;
+  double scale_slope;
+};
+
+// (α, β, γ) = s (cos hθ, sin hθ, 1 − cos hθ) with s = 1 + h (scale − 1), for the triangles
+// [begin, end): four at a time in SIMD lanes, a short last group padded; each lane's arithmetic is
+// the per-triangle formula's, so the bits are those of one triangle at a time.
+HDEFORM_TARGET_CLONES("avx2", "default")
+void blend_coefficients(const BlendTable& table, const double* h_values, std::size_t begin, std::size_t end, Eigen::Vector3d* coefficients) {
+  using detail::Lanes4;
+  using Ints4 = int __attribute__((vector_size(16)));
+  constexpr double k1_6 = 1.0 / 6.0, k1_20 = 1.0 / 20.0, k1_42 = 1.0 / 42.0, k1_12 = 1.0 / 12.0, k1_30 = 1.0 / 30.0;
+  for (std::size_t first = begin; first < end; first += 4) {
+    const std::size_t count = std::min<std::size_t>(4, end - first);
+    Lanes4 h = {};
+    if (count == 4) {
+      detail::load_lanes(h_values + first, h);
+    } else {
+      for (std::size_t k = 0; k < count; ++k) h[k] = h_values[first + k];
+    }
+    const Lanes4 zero = {}, one = zero + 1.0;
+    const Lanes4 clamped = h < zero ? zero : (one < h ? one : h);  // std::clamp(h, 0, 1)
+    const Ints4 nearest = __builtin_convertvector(clamped * table.intervals + 0.5, Ints4);
+    const Lanes4 delta = (h * table.intervals - __builtin_convertvector(nearest, Lanes4)) * table.step;
+    const Lanes4 d2 = delta * delta;
+    const Lanes4 sin_delta = delta * (1.0 - d2 * k1_6 * (1.0 - d2 * k1_20 * (1.0 - d2 * k1_42)));
+    const Lanes4 cos_delta = 1.0 - 0.5 * d2 * (1.0 - d2 * k1_12 * (1.0 - d2 * k1_30));
+    const Eigen::Vector2d* at[4] = {table.cos_sin + nearest[0], table.cos_sin + nearest[1], table.cos_sin + nearest[2], table.cos_sin + nearest[3]};
+    const Lanes4 base_cos = {(*at[0])(0), (*at[1])(0), (*at[2])(0), (*at[3])(0)};
+    const Lanes4 base_sin = {(*at[0])(1), (*at[1])(1), (*at[2])(1), (*at[3])(1)};
+    const Lanes4 cosine = base_cos * cos_delta - base_sin * sin_delta;
+    const Lanes4 sine = base_sin * cos_delta + base_cos * sin_delta;
+    const Lanes4 s = 1.0 + h * table.scale_slope;
+    const Lanes4 alpha = s * cosine, beta = s * sine, gamma = s * (1.0 - cosine);
+    for (std::size_t k = 0; k < count; ++k) coefficients[first + k] = {alpha[k], beta[k], gamma[k]};
+  }
 }
 
 }  // namespace
@@ -65,7 +110,7 @@ Eigen::Matrix3d AxialMaps::matrix(std::size_t triangle) const {
 
 void sample_blend_maps(const Eigen::VectorXd& triangle_h, const HandleTransform& handle, AxialMaps& maps) {
   // Table of cos, sin at φ_i = i·θ/N with steps of at most 0.01 rad; the remainder δ of h·θ is
-  // below 0.005 rad, where the Taylor terms below are exact to double precision.
+  // below 0.005 rad, where the Taylor terms of blend_coefficients are exact to double precision.
   constexpr double kTableStep = 0.01;
   const double theta = handle.angle;
   const int intervals = std::max(16, static_cast<int>(std::ceil(std::abs(theta) / kTableStep)));
@@ -76,24 +121,9 @@ void sample_blend_maps(const Eigen::VectorXd& triangle_h, const HandleTransform&
   }
   maps.axis = handle.axis;
   maps.coefficients.resize(static_cast<std::size_t>(triangle_h.size()));
-  const double step = theta / intervals;
-  const double scale_slope = handle.scale - 1.0;
+  const BlendTable table{maps.angle_table.data(), static_cast<double>(intervals), theta / intervals, handle.scale - 1.0};
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, maps.coefficients.size(), kGrain), [&](const tbb::blocked_range<std::size_t>& range) {
-    for (std::size_t t = range.begin(); t != range.end(); ++t) {
-      const double h = triangle_h(static_cast<Eigen::Index>(t));
-      const double position = std::clamp(h, 0.0, 1.0) * intervals;
-      const int i = static_cast<int>(position + 0.5);
-      const double delta = (h * intervals - i) * step;
-      const double d2 = delta * delta;
-      constexpr double k1_6 = 1.0 / 6.0, k1_20 = 1.0 / 20.0, k1_42 = 1.0 / 42.0, k1_12 = 1.0 / 12.0, k1_30 = 1.0 / 30.0;
-      const double sin_delta = delta * (1.0 - d2 * k1_6 * (1.0 - d2 * k1_20 * (1.0 - d2 * k1_42)));
-      const double cos_delta = 1.0 - 0.5 * d2 * (1.0 - d2 * k1_12 * (1.0 - d2 * k1_30));
-      const Eigen::Vector2d& base = maps.angle_table[static_cast<std::size_t>(i)];
-      const double cosine = base(0) * cos_delta - base(1) * sin_delta;
-      const double sine = base(1) * cos_delta + base(0) * sin_delta;
-      const double s = 1.0 + h * scale_slope;
-      maps.coefficients[t] = {s * cosine, s * sine, s * (1.0 - cosine)};
-    }
+    blend_coefficients(table, triangle_h.data(), range.begin(), range.end(), maps.coefficients.data());
   });
 }
 
