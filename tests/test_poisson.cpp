@@ -60,6 +60,41 @@ TEST(BlendMaps, FourAtATimeGiveTheBitsOfOneAtATime) {
   }
 }
 
+// Several handles' maps, four triangles at a time: each must be, to the bit, what Eigen makes of
+// the triangle alone (the mean of its corners' components, the unit quaternion or the identity
+// for a near-zero one, its rotation matrix, the scale), including a short last group.
+TEST(InterpolatedMaps, FourAtATimeGiveEigensBitsForEachTriangle) {
+  std::mt19937 random(6);
+  std::uniform_real_distribution<double> uniform(-1.0, 1.0);
+  const Eigen::Index vertices = 300, triangle_count = 1003;
+  Eigen::Matrix<double, Eigen::Dynamic, kInterpolatedComponents, Eigen::RowMajor> components(vertices, kInterpolatedComponents);
+  for (Eigen::Index v = 0; v < vertices; ++v) {
+    for (int c = 0; c < kInterpolatedComponents; ++c) components(v, c) = uniform(random);
+  }
+  components.row(7).setZero();  // a quaternion that vanishes: the identity, scaled by zero
+  components.row(8) << 1e-14, -1e-14, 0.0, 0.0, 2.0;  // below the norm's threshold
+  Eigen::MatrixXi triangles(triangle_count, 3);
+  for (Eigen::Index t = 0; t < triangle_count; ++t) {
+    for (int k = 0; k < 3; ++k) triangles(t, k) = static_cast<int>(std::uniform_int_distribution<Eigen::Index>(0, vertices - 1)(random));
+  }
+  triangles.row(0) << 7, 7, 7;
+  triangles.row(1) << 8, 8, 8;
+  triangles.row(1002) << 7, 8, 7;
+  std::vector<Eigen::Matrix3d> maps;
+  sample_interpolated_maps(components, triangles, maps);
+  ASSERT_EQ(maps.size(), static_cast<std::size_t>(triangle_count));
+  for (Eigen::Index t = 0; t < triangle_count; ++t) {
+    const InterpolatedValue mean = (components.row(triangles(t, 0)) + components.row(triangles(t, 1)) + components.row(triangles(t, 2))) / 3.0;
+    const Eigen::Vector4d wxyz = mean.head<4>().transpose();
+    const double norm = wxyz.norm();
+    const Eigen::Quaterniond unit = norm > 1e-12 ? Eigen::Quaterniond(wxyz(0) / norm, wxyz(1) / norm, wxyz(2) / norm, wxyz(3) / norm)
+                                                 : Eigen::Quaterniond::Identity();
+    const Eigen::Matrix3d expected = mean(4) * unit.toRotationMatrix();
+    ASSERT_EQ(maps[static_cast<std::size_t>(t)], expected) << "triangle " << t;
+  }
+  EXPECT_EQ(maps[1], 2.0 * Eigen::Matrix3d::Identity());
+}
+
 TEST(PoissonAssembler, AxialAndMatrixMapsGiveTheSameRightHandSide) {
   auto shape = make_shape(ShapeKind::Cactus, 32);
   const auto weights = cotangent_weights(shape.mesh);

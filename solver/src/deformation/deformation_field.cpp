@@ -61,6 +61,53 @@ void blend_coefficients(const BlendTable& table, const double* h_values, std::si
   }
 }
 
+// T_t = s R(q) from the mean of the corners' interpolated (q0..q3, s), for the triangles
+// [begin, end): four at a time in SIMD lanes, a lane per triangle, a short last group padded. Each
+// lane's arithmetic is that of the per-triangle code (the mean, unit_or_identity with Eigen's
+// norm of a 4-vector, Eigen's toRotationMatrix, the scale), so the bits are the same.
+HDEFORM_TARGET_CLONES("avx2", "default")
+void interpolated_maps(const double* components, const Eigen::MatrixXi& triangles, std::size_t begin, std::size_t end, Eigen::Matrix3d* maps) {
+  using detail::Lanes4;
+  for (std::size_t first = begin; first < end; first += 4) {
+    const std::size_t count = std::min<std::size_t>(4, end - first);
+    // Each lane's corners (a padded lane repeats the group's first triangle; it is not stored).
+    const double* corner[3][4];
+    for (int k = 0; k < 3; ++k) {
+      for (std::size_t lane = 0; lane < 4; ++lane) {
+        const auto t = static_cast<Eigen::Index>(first + (lane < count ? lane : 0));
+        corner[k][lane] = components + kInterpolatedComponents * static_cast<std::size_t>(triangles(t, k));
+      }
+    }
+    Lanes4 mean[kInterpolatedComponents];
+    for (int c = 0; c < kInterpolatedComponents; ++c) {
+      const Lanes4 a = {corner[0][0][c], corner[0][1][c], corner[0][2][c], corner[0][3][c]};
+      const Lanes4 b = {corner[1][0][c], corner[1][1][c], corner[1][2][c], corner[1][3][c]};
+      const Lanes4 d = {corner[2][0][c], corner[2][1][c], corner[2][2][c], corner[2][3][c]};
+      mean[c] = ((a + b) + d) / 3.0;
+    }
+    const Lanes4 &w = mean[0], &x = mean[1], &y = mean[2], &z = mean[3], &scale = mean[4];
+    // Eigen sums a 4-vector's squares in two pairs of lanes, (w² + y²) + (x² + z²).
+    const Lanes4 squared = (w * w + y * y) + (x * x + z * z);
+    Lanes4 norm;
+    for (int lane = 0; lane < 4; ++lane) norm[lane] = std::sqrt(squared[lane]);
+    const auto unit = norm > 1e-12;  // false for NaN too: the identity
+    const Lanes4 zero = {}, one = zero + 1.0;
+    const Lanes4 qw = unit ? w / norm : one, qx = unit ? x / norm : zero, qy = unit ? y / norm : zero, qz = unit ? z / norm : zero;
+    const Lanes4 tx = 2.0 * qx, ty = 2.0 * qy, tz = 2.0 * qz;
+    const Lanes4 twx = tx * qw, twy = ty * qw, twz = tz * qw;
+    const Lanes4 txx = tx * qx, txy = ty * qx, txz = tz * qx;
+    const Lanes4 tyy = ty * qy, tyz = tz * qy, tzz = tz * qz;
+    // Column-major, as Matrix3d stores it.
+    const Lanes4 entry[9] = {scale * (1.0 - (tyy + tzz)), scale * (txy + twz), scale * (txz - twy),
+                             scale * (txy - twz), scale * (1.0 - (txx + tzz)), scale * (tyz + twx),
+                             scale * (txz + twy), scale * (tyz - twx), scale * (1.0 - (txx + tyy))};
+    for (std::size_t lane = 0; lane < count; ++lane) {
+      double* out = maps[first + lane].data();
+      for (int e = 0; e < 9; ++e) out[e] = entry[e][lane];
+    }
+  }
+}
+
 }  // namespace
 
 DeformationField blend_field(const Eigen::VectorXd& h, const HandleTransform& handle) {
@@ -131,12 +178,7 @@ void sample_interpolated_maps(const Eigen::Matrix<double, Eigen::Dynamic, kInter
                               const Eigen::MatrixXi& triangles, std::vector<Eigen::Matrix3d>& maps) {
   maps.resize(static_cast<std::size_t>(triangles.rows()));
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, maps.size(), kGrain), [&](const tbb::blocked_range<std::size_t>& range) {
-    for (std::size_t t = range.begin(); t != range.end(); ++t) {
-      const auto row = static_cast<Eigen::Index>(t);
-      const Eigen::Matrix<double, 1, kInterpolatedComponents> mean =
-          (components.row(triangles(row, 0)) + components.row(triangles(row, 1)) + components.row(triangles(row, 2))) / 3.0;
-      maps[t] = mean(4) * unit_or_identity(mean.head<4>().transpose()).toRotationMatrix();
-    }
+    interpolated_maps(components.data(), triangles, range.begin(), range.end(), maps.data());
   });
 }
 
