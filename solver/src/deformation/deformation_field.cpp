@@ -13,9 +13,12 @@ namespace {
 
 constexpr std::size_t kGrain = 2048;
 
+// An interpolated quaternion no longer than this (or NaN) stands for no rotation.
+constexpr double kSmallestQuaternionNorm = 1e-12;
+
 Eigen::Quaterniond unit_or_identity(const Eigen::Vector4d& wxyz) {
   const double norm = wxyz.norm();
-  if (!(norm > 1e-12)) return Eigen::Quaterniond::Identity();
+  if (!(norm > kSmallestQuaternionNorm)) return Eigen::Quaterniond::Identity();
   return Eigen::Quaterniond(wxyz(0) / norm, wxyz(1) / norm, wxyz(2) / norm, wxyz(3) / norm);
 }
 
@@ -90,7 +93,7 @@ void interpolated_maps(const double* components, const Eigen::MatrixXi& triangle
     const Lanes4 squared = (w * w + y * y) + (x * x + z * z);
     Lanes4 norm;
     for (int lane = 0; lane < 4; ++lane) norm[lane] = std::sqrt(squared[lane]);
-    const auto unit = norm > 1e-12;  // false for NaN too: the identity
+    const auto unit = norm > kSmallestQuaternionNorm;  // false for NaN too: unit_or_identity's identity
     const Lanes4 zero = {}, one = zero + 1.0;
     const Lanes4 qw = unit ? w / norm : one, qx = unit ? x / norm : zero, qy = unit ? y / norm : zero, qz = unit ? z / norm : zero;
     const Lanes4 tx = 2.0 * qx, ty = 2.0 * qy, tz = 2.0 * qz;
