@@ -53,6 +53,12 @@ Eigen::Vector3d row3(const std::vector<double>& values, std::size_t row) {
 
 static_assert(kStride == 4, "the gathers below load a row of positions as four lanes");
 
+// The two gathers below read, for each pair, its neighbour's row (a position, a rotation), scattered
+// over the mesh, and waited for it: they ask for it this many pairs early (the right-hand side's
+// stage 1.14-1.16 -> 0.85-0.90 ms at 48 on the Buddha; 0.90-0.97 at 32, 0.81-0.99 at 64). The pair
+// list carries this many padding entries so the look-ahead stays inside it.
+constexpr std::size_t kPairsAhead = 48;
+
 // The local step's matrices A_i = Σ_v p'_v k_ivᵀ of the rotation vertices [first, first + count):
 // a column of A per vector, the rows of positions (x, y, z, pad) in the lanes. Each entry is the
 // sum of its products in pair order, as a scalar loop would add them.
@@ -62,6 +68,7 @@ void gather_covariances(const std::size_t* pair_start, const int* pair_vertex, c
   for (std::size_t k = 0; k < count; ++k) {
     Lanes4 column[3] = {};
     for (std::size_t p = pair_start[first + k]; p < pair_start[first + k + 1]; ++p) {
+      __builtin_prefetch(positions + kStride * static_cast<std::size_t>(pair_vertex[p + kPairsAhead]));
       Lanes4 position;
       load_lanes(positions + kStride * static_cast<std::size_t>(pair_vertex[p]), position);
       const double* c = coefficient[p].data();
@@ -76,12 +83,6 @@ void gather_covariances(const std::size_t* pair_start, const int* pair_vertex, c
   }
 }
 
-// The rotations a pair's neighbour will need are scattered over 7 MB on the Buddha: the gather
-// below asks for them this many pairs early (its stage 1.14-1.16 -> 0.85-0.90 ms at 48; 0.90-0.97
-// at 32, 0.81-0.99 at 64). The pair list carries this many padding entries so the look-ahead stays
-// inside it.
-constexpr std::size_t kRotationsAhead = 48;
-
 // The global step's right-hand sides b_i = c_i + Σ_v R_v m_iv of the rows [begin, end), a row per
 // vector: R_v's columns (column-major, so three overlapping loads) times m_iv's entries. The pad
 // lane stays zero.
@@ -93,7 +94,7 @@ void gather_rotated(const std::size_t* pair_start, const int* pair_vertex, const
     Lanes4 b;
     load_lanes(constant + kStride * row, b);
     for (std::size_t p = pair_start[row]; p < pair_start[row + 1]; ++p) {
-      const double* ahead = rotations[static_cast<std::size_t>(pair_vertex[p + kRotationsAhead])].data();
+      const double* ahead = rotations[static_cast<std::size_t>(pair_vertex[p + kPairsAhead])].data();
       __builtin_prefetch(ahead);  // a rotation's 72 bytes span two cache lines at most
       __builtin_prefetch(ahead + 8);
       const double* r = rotations[static_cast<std::size_t>(pair_vertex[p])].data();
@@ -241,7 +242,7 @@ ArapRefinement::ArapRefinement(const Mesh& rest, const CotangentWeights& weights
   // rotations and its global pairs are its local ones: the first local_start_[free_count] pairs.
   local_coefficient_.assign(local_vertex_.size(), Eigen::Vector3d::Zero());
   global_coefficient_.assign(local_start_[free_count], Eigen::Vector3d::Zero());
-  local_vertex_.resize(local_vertex_.size() + kRotationsAhead, 0);  // the gather's look-ahead (vertex 0: any valid one)
+  local_vertex_.resize(local_vertex_.size() + kPairsAhead, 0);  // the gather's look-ahead (vertex 0: any valid one)
 
   for (auto& rotations : rotation_) rotations.assign(static_cast<std::size_t>(rotation_count_), Eigen::Matrix3d::Identity());
   paper_rotation_.assign(static_cast<std::size_t>(rotation_count_), Eigen::Matrix3d::Identity());
@@ -256,7 +257,7 @@ ArapRefinement::ArapRefinement(const Mesh& rest, const CotangentWeights& weights
   previous_g_.assign(3 * free_count, 0.0);
   previous_f_.assign(3 * free_count, 0.0);
   const std::size_t most_chunks = std::max({chunk_count(free_count), chunk_count(vertex_.size()), chunk_count(triangles), std::size_t{1}});
-  partial_.assign(most_chunks * 2 * kMaxRefinementHistory, 0.0);  // mix() needs two sums per column and chunk
+  partial_.assign(most_chunks * (2 * kMaxRefinementHistory + 1), 0.0);  // mix(): two sums per column, and the largest step, per chunk
 }
 
 void ArapRefinement::set_options(const RefinementOptions& options) {
@@ -363,26 +364,16 @@ void ArapRefinement::solve() {
   timings_.solve_ms = milliseconds_since(start);
 }
 
-double ArapRefinement::largest_plain_step() const {
-  return tbb::parallel_reduce(
-      tbb::blocked_range<std::size_t>(0, static_cast<std::size_t>(system_.free_count()), 4096), 0.0,
-      [&](const auto& range, double largest) {
-        for (std::size_t row = range.begin(); row != range.end(); ++row) largest = std::max(largest, (row3(rhs_, row) - row3(positions_, row)).squaredNorm());
-        return largest;
-      },
-      [](double a, double b) { return std::max(a, b); });  // the same for any split
-}
-
 void ArapRefinement::mix() {
   const auto start = Clock::now();
   const std::size_t rows = rhs_.size() / kStride;
   double* x = positions_.data();  // the free rows come first: the current state
   const double* g = rhs_.data();
   mixed_ = false;
-  // Only where the rotations belong to the positions is G(x) − x a step from x.
-  status_.largest_step = consistent_ && diagonal_ > 0.0 ? std::sqrt(largest_plain_step()) / diagonal_ : std::numeric_limits<double>::infinity();
   if (!consistent_) {
-    // A warm start has rotations but no positions they were fitted to: no residual yet.
+    // A warm start has rotations but no positions they were fitted to: no residual yet, and no
+    // step G(x) − x from x.
+    status_.largest_step = std::numeric_limits<double>::infinity();
     std::copy(rhs_.begin(), rhs_.end(), positions_.begin());
     has_previous_ = false;
     timings_.acceleration_ms = milliseconds_since(start);
@@ -399,23 +390,27 @@ void ArapRefinement::mix() {
       oldest_ = (oldest_ + 1) % history;
     }
   }
-  // One pass: f = g − x; the newest differences; then g and f become the previous ones; and, to
-  // accelerate, the newest column of the Gram matrix ΔFᵀΔF and ΔFᵀ f, as fixed-order sums of chunk
-  // sums.
+  // One pass: f = g − x and its largest row (the plain step's length, for the settle test); the
+  // newest differences; then g and f become the previous ones; and, to accelerate, the newest
+  // column of the Gram matrix ΔFᵀΔF and ΔFᵀ f, as fixed-order sums of chunk sums.
   const bool accelerate = options_.accelerate && stored_ > 0;
-  const int stride = 2 * history;
+  const int stride = 2 * history + 1;
   const int held = stored_;
   // x and g have rows of four (the pads stay zero: only the first three values of a row are read
   // and written); the history, which no solve reads, has rows of three: a quarter less memory
   // (no faster: measured).
   for_each_chunk(rows, [&](std::size_t chunk, std::size_t begin, std::size_t end) {
-    double gram[kMaxRefinementHistory] = {}, along[kMaxRefinementHistory] = {};
+    double gram[kMaxRefinementHistory] = {}, along[kMaxRefinementHistory] = {}, largest = 0.0;
     double* newest_g = slot >= 0 ? delta_g_[static_cast<std::size_t>(slot)].data() : nullptr;
     double* newest_f = slot >= 0 ? delta_f_[static_cast<std::size_t>(slot)].data() : nullptr;
     for (std::size_t row = begin; row < end; ++row) {
+      const double* step_g = g + kStride * row;
+      const double* step_x = x + kStride * row;
+      const double step[3] = {step_g[0] - step_x[0], step_g[1] - step_x[1], step_g[2] - step_x[2]};
+      largest = std::max(largest, (step[0] * step[0] + step[1] * step[1]) + step[2] * step[2]);
       for (std::size_t c = 0; c < 3; ++c) {
         const std::size_t k = kStride * row + c, h = 3 * row + c;
-        const double f = g[k] - x[k];
+        const double f = step[c];
         if (slot >= 0) {
           newest_g[h] = g[k] - previous_g_[h];
           newest_f[h] = f - previous_f_[h];
@@ -436,14 +431,20 @@ void ArapRefinement::mix() {
       sums[j] = gram[j];
       sums[history + j] = along[j];
     }
+    sums[2 * history] = largest;
   });
   has_previous_ = true;
+  const std::size_t chunks = chunk_count(rows);
+  double largest_square = 0.0;
+  for (std::size_t chunk = 0; chunk < chunks; ++chunk) {
+    largest_square = std::max(largest_square, partial_[chunk * static_cast<std::size_t>(stride) + 2 * static_cast<std::size_t>(history)]);
+  }
+  status_.largest_step = diagonal_ > 0.0 ? std::sqrt(largest_square) / diagonal_ : std::numeric_limits<double>::infinity();
   if (!accelerate) {
     std::copy(rhs_.begin(), rhs_.end(), positions_.begin());
     timings_.acceleration_ms = milliseconds_since(start);
     return;
   }
-  const std::size_t chunks = chunk_count(rows);
   Eigen::Matrix<double, kMaxRefinementHistory, 1> projection = Eigen::Matrix<double, kMaxRefinementHistory, 1>::Zero();
   for (int j = 0; j < stored_; ++j) {
     double gram = 0.0, along = 0.0;

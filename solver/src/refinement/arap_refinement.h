@@ -99,8 +99,6 @@ class ArapRefinement {
   // Fits rotations to the current positions, starting from `start`; returns E.
   double fit_rotations(const std::vector<Eigen::Matrix3d>& start, std::vector<Eigen::Matrix3d>& rotations, int steps);
   double triangle_energy() const;
-  // The largest vertex move of the plain step rhs_ (G(x)) from the free rows of positions_ (x).
-  double largest_plain_step() const;
 
   const DirichletSystem& system_;
   RefinementOptions options_;
