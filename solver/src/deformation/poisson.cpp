@@ -36,7 +36,8 @@ PoissonAssembler::PoissonAssembler(const Mesh& rest, const CotangentWeights& wei
     for (auto& chunk : at) next += std::exchange(chunk[r], next);  // the chunk's count becomes where it starts
     corner_start_[r + 1] = next;
   }
-  corners_.resize(corner_start_.back());
+  corner_triangle_.resize(corner_start_.back());
+  corner_gradient_.resize(corner_start_.back());
   tbb::parallel_for(0, chunks, [&](int c) {
     auto& fill = at[static_cast<std::size_t>(c)];
     for (auto [t, end] = chunk_range(c); t < end; ++t) {
@@ -50,7 +51,9 @@ PoissonAssembler::PoissonAssembler(const Mesh& rest, const CotangentWeights& wei
         const Eigen::Vector3d previous = rest.positions.row(rest.triangles(t, (k + 2) % 3));
         const Eigen::Vector3d gradient = weights.half_cotangent(t, (k + 2) % 3) * (p - next) +
                                          weights.half_cotangent(t, (k + 1) % 3) * (p - previous);
-        corners_[fill[static_cast<std::size_t>(row)]++] = {static_cast<int>(t), gradient};
+        const std::size_t corner = fill[static_cast<std::size_t>(row)]++;
+        corner_triangle_[corner].index = static_cast<int>(t);
+        corner_gradient_[corner] = gradient;
       }
     }
   });
@@ -63,7 +66,7 @@ void PoissonAssembler::assemble_rows(const Eigen::MatrixXd& positions, ColumnBlo
     for (Eigen::Index row = range.begin(); row != range.end(); ++row) {
       const auto begin = corner_start_[static_cast<std::size_t>(row)];
       const auto end = corner_start_[static_cast<std::size_t>(row) + 1];
-      Eigen::Vector3d b = corner_sum(std::span(corners_.data() + begin, end - begin));
+      Eigen::Vector3d b = corner_sum(corner_triangle_.data() + begin, corner_gradient_.data() + begin, end - begin);
       for (const auto& entry : system_.coupling(static_cast<int>(row))) {
         b.noalias() -= entry.weight * positions.row(entry.vertex).transpose();
       }
@@ -74,22 +77,22 @@ void PoissonAssembler::assemble_rows(const Eigen::MatrixXd& positions, ColumnBlo
 
 void PoissonAssembler::assemble(std::span<const Eigen::Matrix3d> maps, const Eigen::MatrixXd& positions, ColumnBlocks& rhs,
                                 int first_column) const {
-  assemble_rows(positions, rhs, first_column, [&](std::span<const Corner> corners) {
+  assemble_rows(positions, rhs, first_column, [&](const CornerTriangle* triangle, const Eigen::Vector3d* gradient, std::size_t count) {
     Eigen::Vector3d b = Eigen::Vector3d::Zero();
-    for (const auto& corner : corners) b.noalias() += maps[static_cast<std::size_t>(corner.triangle)] * corner.gradient;
+    for (std::size_t i = 0; i < count; ++i) b.noalias() += maps[static_cast<std::size_t>(triangle[i].index)] * gradient[i];
     return b;
   });
 }
 
 void PoissonAssembler::assemble(const AxialMaps& maps, const Eigen::MatrixXd& positions, ColumnBlocks& rhs, int first_column) const {
   const Eigen::Vector3d& a = maps.axis;
-  assemble_rows(positions, rhs, first_column, [&](std::span<const Corner> corners) {
+  assemble_rows(positions, rhs, first_column, [&](const CornerTriangle* triangle, const Eigen::Vector3d* gradient, std::size_t count) {
     Eigen::Vector3d along = Eigen::Vector3d::Zero(), turned = Eigen::Vector3d::Zero(), axial = Eigen::Vector3d::Zero();
-    for (const auto& corner : corners) {
-      const Eigen::Vector3d& c = maps.coefficients[static_cast<std::size_t>(corner.triangle)];
-      along += c(0) * corner.gradient;
-      turned += c(1) * corner.gradient;
-      axial += c(2) * corner.gradient;
+    for (std::size_t i = 0; i < count; ++i) {
+      const Eigen::Vector3d& c = maps.coefficients[static_cast<std::size_t>(triangle[i].index)];
+      along += c(0) * gradient[i];
+      turned += c(1) * gradient[i];
+      axial += c(2) * gradient[i];
     }
     return Eigen::Vector3d(along + a.cross(turned) + a * a.dot(axial));
   });
