@@ -2,7 +2,6 @@
 
 #include <Eigen/Cholesky>
 #include <tbb/parallel_for.h>
-#include <tbb/parallel_reduce.h>
 
 #include <algorithm>
 #include <array>
