@@ -101,9 +101,8 @@ class DetailEncoding {
  private:
   struct FineRow;
   void check_base(const Eigen::MatrixXd& base_positions) const;
-  // A fine vertex's position from its row and its foot triangle's map.
-  template <class Map>
-  Eigen::Vector3d position_of(const FineRow& row, const Map& map) const;
+  // A fine vertex's position from its row and its foot triangle, as the whole rebuild makes it.
+  Eigen::Vector3d position_of(const FineRow& row, Eigen::Index triangle, const Eigen::MatrixXd& base_positions) const;
 
   Eigen::Index base_count_ = 0;
   Eigen::MatrixXi base_triangles_;
