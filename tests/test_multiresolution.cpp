@@ -7,9 +7,9 @@
 
 #include <Eigen/Geometry>
 #include <algorithm>
-#include <numeric>
 #include <cmath>
 #include <numbers>
+#include <numeric>
 #include <set>
 
 #include "hdeform/deformer.h"

@@ -104,6 +104,22 @@ Eigen::Matrix3d frame_matrix(const FootMap& map) {
   position = foot + ((map.frame[0] * detail[0] + map.frame[1] * detail[1]) + map.frame[2] * detail[2]);
 }
 
+// A fine row's position on its foot triangle: the reconstruction plus the row's correction. False
+// where the correction is NaN (an inexact rest, placed from inexact_rest_): `position` then holds
+// the reconstruction alone.
+template <class Row>
+[[gnu::always_inline]] inline bool corrected_position(const FootMap& map, const Row& row, Lanes4& position) {
+  reconstruct_in_lanes(map, row.wb, row.wc, row.detail.data(), position);
+  if (std::isnan(row.correction[0])) return false;
+  const Lanes4 correction = {row.correction[0], row.correction[1], row.correction[2], 0.0f};
+  position += correction;
+  return true;
+}
+
+[[gnu::always_inline]] inline void base_corner(const Eigen::MatrixXd& base_positions, Eigen::Index v, Lanes4& lanes) {
+  lanes = Lanes4{base_positions(v, 0), base_positions(v, 1), base_positions(v, 2), 0.0};
+}
+
 // The rebuild of the fine vertices on the base triangles [first, last): the triangles' maps, and
 // each row's position where its vertex is. A row whose correction is NaN (an inexact rest) is
 // left to the caller.
@@ -111,10 +127,6 @@ template <class Row>
 HDEFORM_TARGET_CLONES("avx2", "default")
 void rebuild_by_triangle(Eigen::Index first, Eigen::Index last, const Eigen::MatrixXi& triangles, const int* triangle_rows, const Row* rows,
                          const Eigen::MatrixXd& base_positions, std::array<double*, 3> column) {
-  const auto corner = [&](Eigen::Index t, int k, Lanes4& lanes) {
-    const Eigen::Index v = triangles(t, k);
-    lanes = Lanes4{base_positions(v, 0), base_positions(v, 1), base_positions(v, 2), 0.0};
-  };
   for (Eigen::Index t = first; t != last; ++t) {
     // The corners of the triangles to come are scattered over the base: asked for early.
     if (t + kCornersAhead < last) {
@@ -126,18 +138,15 @@ void rebuild_by_triangle(Eigen::Index first, Eigen::Index last, const Eigen::Mat
     const int begin = triangle_rows[t], end = triangle_rows[t + 1];
     if (begin == end) continue;
     Lanes4 a, b, c;
-    corner(t, 0, a);
-    corner(t, 1, b);
-    corner(t, 2, c);
+    base_corner(base_positions, triangles(t, 0), a);
+    base_corner(base_positions, triangles(t, 1), b);
+    base_corner(base_positions, triangles(t, 2), c);
     FootMap map;
     make_foot_map(a, b, c, map);
     for (int i = begin; i != end; ++i) {
       const Row& row = rows[i];
-      if (std::isnan(row.correction[0])) continue;
       Lanes4 position;
-      reconstruct_in_lanes(map, row.wb, row.wc, row.detail.data(), position);
-      const Lanes4 correction = {row.correction[0], row.correction[1], row.correction[2], 0.0f};
-      position += correction;
+      if (!corrected_position(map, row, position)) continue;
       for (int axis = 0; axis < 3; ++axis) column[static_cast<std::size_t>(axis)][row.vertex] = position[axis];
     }
   }
@@ -466,19 +475,17 @@ void DetailEncoding::check_base(const Eigen::MatrixXd& base_positions) const {
 // A fine vertex's position from its row and its foot triangle, as the whole rebuild makes it (the
 // same lanes), also where the rest was inexact; for the rebuild of some vertices.
 Eigen::Vector3d DetailEncoding::position_of(const FineRow& row, Eigen::Index triangle, const Eigen::MatrixXd& base_positions) const {
-  std::array<Lanes4, 3> corners;
-  for (int k = 0; k < 3; ++k) to_lanes(base_positions.row(base_triangles_(triangle, k)).transpose(), corners[static_cast<std::size_t>(k)]);
+  Lanes4 a, b, c;
+  base_corner(base_positions, base_triangles_(triangle, 0), a);
+  base_corner(base_positions, base_triangles_(triangle, 1), b);
+  base_corner(base_positions, base_triangles_(triangle, 2), c);
   FootMap map;
-  make_foot_map(corners[0], corners[1], corners[2], map);
-  Lanes4 now;
-  reconstruct_in_lanes(map, row.wb, row.wc, row.detail.data(), now);
-  if (std::isnan(row.correction[0])) {
-    const auto inexact = std::lower_bound(inexact_rest_.begin(), inexact_rest_.end(), row.vertex,
-                                          [](const InexactRest& entry, int vertex) { return entry.vertex < vertex; });
-    return inexact->rest + (from_lanes(now) - inexact->rest_reconstruction);
-  }
-  const Lanes4 correction = {row.correction[0], row.correction[1], row.correction[2], 0.0f};
-  return from_lanes(now + correction);
+  make_foot_map(a, b, c, map);
+  Lanes4 position;
+  if (corrected_position(map, row, position)) return from_lanes(position);
+  const auto inexact = std::lower_bound(inexact_rest_.begin(), inexact_rest_.end(), row.vertex,
+                                        [](const InexactRest& entry, int vertex) { return entry.vertex < vertex; });
+  return inexact->rest + (from_lanes(position) - inexact->rest_reconstruction);
 }
 
 void DetailEncoding::reconstruct(const Eigen::MatrixXd& base_positions, Eigen::MatrixXd& fine_positions) const {
@@ -495,10 +502,13 @@ void DetailEncoding::reconstruct(const Eigen::MatrixXd& base_positions, Eigen::M
   tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, base_triangles_.rows(), kTriangleGrain), [&](const auto& range) {
     rebuild_by_triangle(range.begin(), range.end(), base_triangles_, triangle_rows_.data(), rows_.data(), base_positions, column);
   });
-  for (const InexactRest& inexact : inexact_rest_) {
-    const auto v = static_cast<std::size_t>(inexact.vertex);
-    store(inexact.vertex, position_of(rows_[static_cast<std::size_t>(row_of_fine_[v])], foot_triangle_[v], base_positions));
-  }
+  // None on the 3.3M Buddha; a mesh with many coordinates near zero may have more: in parallel.
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, inexact_rest_.size(), kVertexGrain), [&](const auto& range) {
+    for (std::size_t i = range.begin(); i != range.end(); ++i) {
+      const auto v = static_cast<std::size_t>(inexact_rest_[i].vertex);
+      store(inexact_rest_[i].vertex, position_of(rows_[static_cast<std::size_t>(row_of_fine_[v])], foot_triangle_[v], base_positions));
+    }
+  });
   const auto unreferenced_from = static_cast<std::size_t>(triangle_rows_.back());
   for (std::size_t i = unreferenced_from; i < rows_.size(); ++i) store(rows_[i].vertex, Eigen::Vector3d(rows_[i].detail.data()));
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, fine_of_base_.size(), kVertexGrain), [&](const auto& range) {
