@@ -116,8 +116,18 @@ template <class Row>
   return true;
 }
 
-[[gnu::always_inline]] inline void base_corner(const Eigen::MatrixXd& base_positions, Eigen::Index v, Lanes4& lanes) {
-  lanes = Lanes4{base_positions(v, 0), base_positions(v, 1), base_positions(v, 2), 0.0};
+// Base triangle t's map from the base's (deformed) positions.
+[[gnu::always_inline]] inline void base_triangle_map(const Eigen::MatrixXd& base_positions, const Eigen::MatrixXi& triangles, Eigen::Index t,
+                                                     FootMap& map) {
+  const auto corner = [&](int k, Lanes4& lanes) {  // (vectors by reference: see lanes.h)
+    const Eigen::Index v = triangles(t, k);
+    lanes = Lanes4{base_positions(v, 0), base_positions(v, 1), base_positions(v, 2), 0.0};
+  };
+  Lanes4 a, b, c;
+  corner(0, a);
+  corner(1, b);
+  corner(2, c);
+  make_foot_map(a, b, c, map);
 }
 
 // The rebuild of the fine vertices on the base triangles [first, last): the triangles' maps, and
@@ -137,12 +147,8 @@ void rebuild_by_triangle(Eigen::Index first, Eigen::Index last, const Eigen::Mat
     }
     const int begin = triangle_rows[t], end = triangle_rows[t + 1];
     if (begin == end) continue;
-    Lanes4 a, b, c;
-    base_corner(base_positions, triangles(t, 0), a);
-    base_corner(base_positions, triangles(t, 1), b);
-    base_corner(base_positions, triangles(t, 2), c);
     FootMap map;
-    make_foot_map(a, b, c, map);
+    base_triangle_map(base_positions, triangles, t, map);
     for (int i = begin; i != end; ++i) {
       const Row& row = rows[i];
       Lanes4 position;
@@ -475,12 +481,8 @@ void DetailEncoding::check_base(const Eigen::MatrixXd& base_positions) const {
 // A fine vertex's position from its row and its foot triangle, as the whole rebuild makes it (the
 // same lanes), also where the rest was inexact; for the rebuild of some vertices.
 Eigen::Vector3d DetailEncoding::position_of(const FineRow& row, Eigen::Index triangle, const Eigen::MatrixXd& base_positions) const {
-  Lanes4 a, b, c;
-  base_corner(base_positions, base_triangles_(triangle, 0), a);
-  base_corner(base_positions, base_triangles_(triangle, 1), b);
-  base_corner(base_positions, base_triangles_(triangle, 2), c);
   FootMap map;
-  make_foot_map(a, b, c, map);
+  base_triangle_map(base_positions, base_triangles_, triangle, map);
   Lanes4 position;
   if (corrected_position(map, row, position)) return from_lanes(position);
   const auto inexact = std::lower_bound(inexact_rest_.begin(), inexact_rest_.end(), row.vertex,
