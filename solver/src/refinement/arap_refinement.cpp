@@ -60,25 +60,31 @@ constexpr std::size_t kPairsAhead = 48;
 
 // The local step's matrices A_i = Σ_v p'_v k_ivᵀ of the rotation vertices [first, first + count):
 // a column of A per vector, the rows of positions (x, y, z, pad) in the lanes. Each entry is the
-// sum of its products in pair order, as a scalar loop would add them.
+// sum of its products in pair order, as a scalar loop would add them. Beside them each vertex's
+// share of the deformed edges' energy, Σ_v W_iv ‖p'_v − p'_i‖², from the rows already loaded.
+template <class Coefficient>
 HDEFORM_TARGET_CLONES("avx2", "default")
-void gather_covariances(const std::size_t* pair_start, const int* pair_vertex, const Eigen::Vector3d* coefficient, const double* positions,
-                        std::size_t first, std::size_t count, Eigen::Matrix3d* covariance) {
+void gather_covariances(const std::size_t* pair_start, const int* pair_vertex, const Coefficient* coefficient, const double* positions,
+                        std::size_t first, std::size_t count, Eigen::Matrix3d* covariance, double* edge_energy) {
   for (std::size_t k = 0; k < count; ++k) {
-    Lanes4 column[3] = {};
+    Lanes4 column[3] = {}, energy = {}, self;
+    load_lanes(positions + kStride * (first + k), self);
     for (std::size_t p = pair_start[first + k]; p < pair_start[first + k + 1]; ++p) {
       __builtin_prefetch(positions + kStride * static_cast<std::size_t>(pair_vertex[p + kPairsAhead]));
-      Lanes4 position;
+      Lanes4 position, c;
       load_lanes(positions + kStride * static_cast<std::size_t>(pair_vertex[p]), position);
-      const double* c = coefficient[p].data();
+      load_lanes(coefficient[p].values.data(), c);  // k_iv and W_iv
       column[0] += position * c[0];
       column[1] += position * c[1];
       column[2] += position * c[2];
+      const Lanes4 edge = position - self;
+      energy += (edge * edge) * c[3];
     }
     double* out = covariance[k].data();  // column-major
     for (int j = 0; j < 3; ++j) {
       for (int i = 0; i < 3; ++i) out[3 * j + i] = column[j][i];
     }
+    edge_energy[k] = (energy[0] + energy[1]) + energy[2];  // the pad lane is zero
   }
 }
 
@@ -175,7 +181,6 @@ ArapRefinement::ArapRefinement(const Mesh& rest, const CotangentWeights& weights
   }
   const std::size_t triangles = triangle_.size();
   triangle_corners_.resize(triangles);
-  triangle_weights_.resize(triangles);
   corner_gradient_.resize(triangles);
   rest_edge_energy_.resize(triangles);
   corner_multiplicity_.resize(triangles);
@@ -192,7 +197,6 @@ ArapRefinement::ArapRefinement(const Mesh& rest, const CotangentWeights& weights
     for (int k = 0; k < 3; ++k) {
       const auto next = static_cast<std::size_t>((k + 1) % 3), previous = static_cast<std::size_t>((k + 2) % 3);
       const auto here = static_cast<std::size_t>(k);
-      triangle_weights_[c](k) = weights.half_cotangent(t, k);
       // As in the Poisson assembly: corner k's edges are opposite corners k+2 and k+1.
       corner_gradient_[c][here] = weights.half_cotangent(t, static_cast<Eigen::Index>(previous)) * (p[here] - p[next]) +
                                   weights.half_cotangent(t, static_cast<Eigen::Index>(next)) * (p[here] - p[previous]);
@@ -239,8 +243,34 @@ ArapRefinement::ArapRefinement(const Mesh& rest, const CotangentWeights& weights
   }
   // A free vertex's triangles all have a free corner (itself), so all its neighbours carry
   // rotations and its global pairs are its local ones: the first local_start_[free_count] pairs.
-  local_coefficient_.assign(local_vertex_.size(), Eigen::Vector3d::Zero());
+  local_coefficient_.assign(local_vertex_.size(), LocalCoefficient{});
   global_coefficient_.assign(local_start_[free_count], Eigen::Vector3d::Zero());
+  // The deformed energy Σ_t m_t Σ_e w_e ‖e‖² (m_t: the triangle's rotation corners) edge by edge:
+  // each edge of a triangle at the pair of its end with a rotation (the lower of two), or, with
+  // neither, in the constant.
+  for (int i = 0; i < rotation_count_; ++i) {
+    for (std::size_t a = incidence_start_[static_cast<std::size_t>(i)]; a < incidence_start_[static_cast<std::size_t>(i) + 1]; ++a) {
+      const Incidence& incidence = incidence_[a];
+      const auto c = static_cast<std::size_t>(incidence.triangle);
+      for (int k = 0; k < 3; ++k) {  // the edge opposite corner k, if vertex i is one of its ends
+        if (k == incidence.corner) continue;
+        const int other = 3 - k - incidence.corner;
+        const int v = triangle_corners_[c][static_cast<std::size_t>(other)];
+        if (v < rotation_count_ && v < i) continue;  // counted at v
+        const int t = triangle_[c];
+        local_coefficient_[static_cast<std::size_t>(incidence.slot[static_cast<std::size_t>(other)])].values[3] +=
+            corner_multiplicity_[c] * weights.half_cotangent(t, k);
+      }
+    }
+  }
+  for (std::size_t c = 0; c < triangles; ++c) {
+    for (int k = 0; k < 3; ++k) {
+      const int a = triangle_corners_[c][static_cast<std::size_t>((k + 1) % 3)], b = triangle_corners_[c][static_cast<std::size_t>((k + 2) % 3)];
+      if (a >= rotation_count_ && b >= rotation_count_) {
+        constrained_edges_.push_back({a, b, corner_multiplicity_[c] * weights.half_cotangent(triangle_[c], k)});
+      }
+    }
+  }
   local_vertex_.resize(local_vertex_.size() + kPairsAhead, 0);  // the gather's look-ahead (vertex 0: any valid one)
 
   for (auto& rotations : rotation_) rotations.assign(static_cast<std::size_t>(rotation_count_), Eigen::Matrix3d::Identity());
@@ -271,7 +301,7 @@ void ArapRefinement::rebuild_coefficients() {
   tbb::parallel_for(tbb::blocked_range<int>(0, rotation_count_, 512), [&](const tbb::blocked_range<int>& range) {
     for (int i = range.begin(); i != range.end(); ++i) {
       const auto index = static_cast<std::size_t>(i);
-      for (std::size_t p = local_start_[index]; p < local_start_[index + 1]; ++p) local_coefficient_[p].setZero();
+      for (std::size_t p = local_start_[index]; p < local_start_[index + 1]; ++p) std::fill_n(local_coefficient_[p].values.begin(), 3, 0.0);
       if (i < free_count) {
         for (std::size_t p = local_start_[index]; p < local_start_[index + 1]; ++p) global_coefficient_[p].setZero();
       }
@@ -282,12 +312,20 @@ void ArapRefinement::rebuild_coefficients() {
         const auto& gradient = corner_gradient_[t];
         for (std::size_t k = 0; k < 3; ++k) {
           const auto slot = static_cast<std::size_t>(incidence.slot[k]);
-          local_coefficient_[slot] += s * gradient[k];
+          for (int j = 0; j < 3; ++j) local_coefficient_[slot].values[static_cast<std::size_t>(j)] += s * gradient[k](j);
           if (i < free_count) global_coefficient_[slot] += (s / 3.0) * gradient[static_cast<std::size_t>(incidence.corner)];
         }
       }
     }
   });
+  // The rest edges' part of the energy, which only the scales change.
+  for_each_chunk(triangle_.size(), [&](std::size_t chunk, std::size_t begin, std::size_t end) {
+    double sum = 0.0;
+    for (std::size_t c = begin; c < end; ++c) sum += corner_multiplicity_[c] * scales_[c] * scales_[c] * rest_edge_energy_[c];
+    partial_[chunk] = sum;
+  });
+  scaled_rest_energy_ = 0.0;
+  for (std::size_t chunk = 0; chunk < chunk_count(triangle_.size()); ++chunk) scaled_rest_energy_ += partial_[chunk];
 }
 
 void ArapRefinement::begin(const Eigen::MatrixXd& positions, RefinementStart start) {
@@ -314,6 +352,7 @@ void ArapRefinement::begin(const Eigen::MatrixXd& positions, RefinementStart sta
   for (std::size_t c = free_count; c < vertex_.size(); ++c) {
     for (int k = 0; k < 3; ++k) positions_[kStride * c + static_cast<std::size_t>(k)] = positions(vertex_[c], k);
   }
+  update_constant_energy();
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, free_count, 2048), [&](const auto& range) {
     for (std::size_t row = range.begin(); row != range.end(); ++row) {
       Eigen::Vector3d b = Eigen::Vector3d::Zero();
@@ -487,24 +526,13 @@ void ArapRefinement::mix() {
   timings_.acceleration_ms = milliseconds_since(start);
 }
 
-double ArapRefinement::triangle_energy() const {
-  double* sums = const_cast<double*>(partial_.data());
-  for_each_chunk(triangle_.size(), [&](std::size_t chunk, std::size_t begin, std::size_t end) {
-    double sum = 0.0;
-    for (std::size_t c = begin; c < end; ++c) {
-      const auto& corners = triangle_corners_[c];
-      const Eigen::Vector3d p0 = row3(positions_, static_cast<std::size_t>(corners[0]));
-      const Eigen::Vector3d p1 = row3(positions_, static_cast<std::size_t>(corners[1]));
-      const Eigen::Vector3d p2 = row3(positions_, static_cast<std::size_t>(corners[2]));
-      const Eigen::Vector3d& w = triangle_weights_[c];
-      const double deformed = w(0) * (p1 - p2).squaredNorm() + w(1) * (p2 - p0).squaredNorm() + w(2) * (p0 - p1).squaredNorm();
-      sum += corner_multiplicity_[c] * (deformed + scales_[c] * scales_[c] * rest_edge_energy_[c]);
-    }
-    sums[chunk] = sum;
-  });
-  double total = 0.0;
-  for (std::size_t chunk = 0; chunk < chunk_count(triangle_.size()); ++chunk) total += partial_[chunk];
-  return total;
+void ArapRefinement::update_constant_energy() {
+  double deformed = 0.0;
+  for (const ConstrainedEdge& edge : constrained_edges_) {
+    const Eigen::Vector3d e = row3(positions_, static_cast<std::size_t>(edge.a)) - row3(positions_, static_cast<std::size_t>(edge.b));
+    deformed += edge.weight * e.squaredNorm();
+  }
+  constant_energy_ = scaled_rest_energy_ + deformed;
 }
 
 bool ArapRefinement::keep_turns(std::size_t i, const Eigen::Matrix3d& a, const Eigen::Matrix3d& start, RotationFit& fit) const {
@@ -531,14 +559,17 @@ double ArapRefinement::fit_rotations(const std::vector<Eigen::Matrix3d>& start_r
   const std::size_t count = static_cast<std::size_t>(rotation_count_);
   const std::size_t chunks = chunk_count(count);
   for_each_chunk(count, [&](std::size_t chunk, std::size_t begin, std::size_t end) {
-    double sum = 0.0, unlimited = 0.0;
+    double sum = 0.0, unlimited = 0.0, deformed = 0.0;
     // A block's matrices are fitted together, several in SIMD lanes (rotation_fit.h).
     constexpr std::size_t kBlock = 64;
     std::array<Eigen::Matrix3d, kBlock> covariance;
+    std::array<double, kBlock> edge_energy;
     std::array<RotationFit, kBlock> fits;
     for (std::size_t first = begin; first < end; first += kBlock) {
       const std::size_t block = std::min(kBlock, end - first);
-      gather_covariances(local_start_.data(), local_vertex_.data(), local_coefficient_.data(), positions_.data(), first, block, covariance.data());
+      gather_covariances(local_start_.data(), local_vertex_.data(), local_coefficient_.data(), positions_.data(), first, block, covariance.data(),
+                         edge_energy.data());
+      for (std::size_t k = 0; k < block; ++k) deformed += edge_energy[k];
       hdeform::fit_rotations(std::span(covariance.data(), block), std::span(start_rotations.data() + first, block), std::span(fits.data(), block),
                              kRotationTolerance, steps);
       for (std::size_t k = 0; k < block; ++k) {
@@ -552,15 +583,16 @@ double ArapRefinement::fit_rotations(const std::vector<Eigen::Matrix3d>& start_r
     }
     partial_[chunk] = sum;
     partial_[chunks + chunk] = unlimited;
+    partial_[2 * chunks + chunk] = deformed;
   });
-  double fitted = 0.0, fitted_unlimited = 0.0;
+  double fitted = 0.0, fitted_unlimited = 0.0, edges = constant_energy_;
   for (std::size_t chunk = 0; chunk < chunks; ++chunk) {
     fitted += partial_[chunk];
     fitted_unlimited += partial_[chunks + chunk];
+    edges += partial_[2 * chunks + chunk];
   }
-  const double triangles = triangle_energy();
-  unlimited_energy_ = triangles - 2.0 * fitted_unlimited;
-  return triangles - 2.0 * fitted;
+  unlimited_energy_ = edges - 2.0 * fitted_unlimited;
+  return edges - 2.0 * fitted;
 }
 
 void ArapRefinement::fit() {

@@ -10,7 +10,9 @@
 //   local:  A_i = Σ_v p'_v k_ivᵀ,   k_iv = Σ_{t∋i,v} s_t g_{t,v}     (maximise tr(R_iᵀ A_i))
 //   global: b_i = Σ_v R_v m_iv,     m_iv = Σ_{t∋i,v} (s_t/3) g_{t,i}  (= Σ_{t∋i} T_t g_{t,i})
 // with g_{t,v} = Σ_{b∈t} w^t_vb (p_v − p_b) the Poisson assembly's corner gradients, so an
-// iteration reads a few vectors per vertex instead of a matrix per triangle.
+// iteration reads a few vectors per vertex instead of a matrix per triangle. The energy's
+// deformed edges are summed over the same pairs, W_iv ‖p'_v − p'_i‖² (each triangle's edge weighted
+// by the triangle's rotation corners, and counted at one of its ends), in the local step's gather.
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <array>
@@ -98,7 +100,9 @@ class ArapRefinement {
   bool keep_turns(std::size_t i, const Eigen::Matrix3d& a, const Eigen::Matrix3d& start, RotationFit& fit) const;
   // Fits rotations to the current positions, starting from `start`; returns E.
   double fit_rotations(const std::vector<Eigen::Matrix3d>& start, std::vector<Eigen::Matrix3d>& rotations, int steps);
-  double triangle_energy() const;
+  // The energy's terms that no iteration changes: the rest edges' (by the scales) and the deformed
+  // edges between two vertices without a rotation (both constrained).
+  void update_constant_energy();
 
   const DirichletSystem& system_;
   RefinementOptions options_;
@@ -112,15 +116,24 @@ class ArapRefinement {
 
   std::vector<int> triangle_;                          // energy triangles (mesh ids)
   std::vector<std::array<int, 3>> triangle_corners_;   // compact vertices
-  std::vector<Eigen::Vector3d> triangle_weights_;      // w of the edge opposite each corner
   std::vector<std::array<Eigen::Vector3d, 3>> corner_gradient_;
   std::vector<double> rest_edge_energy_;               // Σ w ‖p_a − p_b‖²
   std::vector<double> corner_multiplicity_;            // corners that carry a rotation
   std::vector<double> scales_, new_scales_;
+  struct ConstrainedEdge {  // a deformed edge of the energy between two vertices without a rotation
+    int a, b;
+    double weight;  // the triangle's rotation corners times w
+  };
+  std::vector<ConstrainedEdge> constrained_edges_;
+  double scaled_rest_energy_ = 0.0;  // Σ_t (rotation corners) s_t² Σ w ‖p_a − p_b‖²
+  double constant_energy_ = 0.0;     // that and the constrained edges' deformed energy
 
   std::vector<std::size_t> local_start_;  // per rotation vertex
   std::vector<int> local_vertex_;
-  std::vector<Eigen::Vector3d> local_coefficient_;
+  struct LocalCoefficient {  // of a pair (i, v): k_iv's x, y, z, and W_iv (one load of four lanes)
+    alignas(32) std::array<double, 4> values;
+  };
+  std::vector<LocalCoefficient> local_coefficient_;
   std::vector<std::size_t> incidence_start_;
   std::vector<Incidence> incidence_;
 
