@@ -10,6 +10,7 @@
 #include <numbers>
 #include <limits>
 #include <span>
+#include <utility>
 
 #include "hdeform/rotation_fit.h"
 #include "hdeform/stopwatch.h"
@@ -115,6 +116,58 @@ void gather_rotated(const std::size_t* pair_start, const int* pair_vertex, const
     }
     store_lanes(b, rhs + kStride * row);
   }
+}
+
+// mix()'s pass over the rows [begin, end): f = g − x, the plain step's largest row, the newest
+// differences, g and f kept as the previous ones, and with Held columns of history the newest
+// column of ΔFᵀΔF and ΔFᵀ f. Held is a template argument so that those sums stay in registers:
+// with a count known only at run time GCC kept them in memory, each addition waiting on the store
+// before it. Each sum takes its products in the same order either way.
+struct DifferencePass {
+  const double* g;  // rows of kStride
+  const double* x;
+  double* previous_g;  // rows of three, as the history
+  double* previous_f;
+  double* newest_g;  // the newest differences' slot; null while there is no previous step
+  double* newest_f;
+  std::array<const double*, kMaxRefinementHistory> delta_f;
+};
+template <int Held>
+void difference_rows(const DifferencePass& pass, std::size_t begin, std::size_t end, double* gram, double* along, double& largest) {
+  double gram_sum[Held + 1] = {}, along_sum[Held + 1] = {}, largest_square = 0.0;
+  for (std::size_t row = begin; row < end; ++row) {
+    const double* step_g = pass.g + kStride * row;
+    const double* step_x = pass.x + kStride * row;
+    const double step[3] = {step_g[0] - step_x[0], step_g[1] - step_x[1], step_g[2] - step_x[2]};
+    largest_square = std::max(largest_square, (step[0] * step[0] + step[1] * step[1]) + step[2] * step[2]);
+    for (std::size_t c = 0; c < 3; ++c) {
+      const std::size_t h = 3 * row + c;
+      const double g = step_g[c], f = step[c];
+      if (pass.newest_g != nullptr) {
+        pass.newest_g[h] = g - pass.previous_g[h];
+        pass.newest_f[h] = f - pass.previous_f[h];
+      }
+      pass.previous_g[h] = g;
+      pass.previous_f[h] = f;
+      for (int j = 0; j < Held; ++j) {
+        const double column = pass.delta_f[static_cast<std::size_t>(j)][h];
+        gram_sum[j] += pass.newest_f[h] * column;
+        along_sum[j] += column * f;
+      }
+    }
+  }
+  for (int j = 0; j < Held; ++j) {
+    gram[j] = gram_sum[j];
+    along[j] = along_sum[j];
+  }
+  largest = largest_square;
+}
+// Calls body.template operator()<H>() with H = count, for a count from 0 to kMaxRefinementHistory.
+template <class Body>
+void with_history(int count, Body&& body) {
+  [&]<int... H>(std::integer_sequence<int, H...>) {
+    ((count == H ? body.template operator()<H>() : void()), ...);
+  }(std::make_integer_sequence<int, kMaxRefinementHistory + 1>());
 }
 
 }  // namespace
@@ -428,48 +481,24 @@ void ArapRefinement::mix() {
       oldest_ = (oldest_ + 1) % history;
     }
   }
-  // One pass: f = g − x and its largest row (the plain step's length, for the settle test); the
-  // newest differences; then g and f become the previous ones; and, to accelerate, the newest
-  // column of the Gram matrix ΔFᵀΔF and ΔFᵀ f, as fixed-order sums of chunk sums.
+  // One pass over the rows (difference_rows): the plain step's largest row (for the settle test),
+  // the newest differences and, to accelerate, the Gram matrix's newest column, as fixed-order
+  // sums of chunk sums.
   const bool accelerate = options_.accelerate && stored_ > 0;
   const int stride = 2 * history + 1;
   const int held = stored_;
   // x and g have rows of four (the pads stay zero: only the first three values of a row are read
   // and written); the history, which no solve reads, has rows of three: a quarter less memory
   // (no faster: measured).
+  DifferencePass pass{g, x, previous_g_.data(), previous_f_.data(), nullptr, nullptr, {}};
+  if (slot >= 0) {
+    pass.newest_g = delta_g_[static_cast<std::size_t>(slot)].data();
+    pass.newest_f = delta_f_[static_cast<std::size_t>(slot)].data();
+  }
+  for (int j = 0; j < held; ++j) pass.delta_f[static_cast<std::size_t>(j)] = delta_f_[static_cast<std::size_t>(j)].data();
   for_each_chunk(rows, [&](std::size_t chunk, std::size_t begin, std::size_t end) {
-    double gram[kMaxRefinementHistory] = {}, along[kMaxRefinementHistory] = {}, largest = 0.0;
-    double* newest_g = slot >= 0 ? delta_g_[static_cast<std::size_t>(slot)].data() : nullptr;
-    double* newest_f = slot >= 0 ? delta_f_[static_cast<std::size_t>(slot)].data() : nullptr;
-    for (std::size_t row = begin; row < end; ++row) {
-      const double* step_g = g + kStride * row;
-      const double* step_x = x + kStride * row;
-      const double step[3] = {step_g[0] - step_x[0], step_g[1] - step_x[1], step_g[2] - step_x[2]};
-      largest = std::max(largest, (step[0] * step[0] + step[1] * step[1]) + step[2] * step[2]);
-      for (std::size_t c = 0; c < 3; ++c) {
-        const std::size_t k = kStride * row + c, h = 3 * row + c;
-        const double f = step[c];
-        if (slot >= 0) {
-          newest_g[h] = g[k] - previous_g_[h];
-          newest_f[h] = f - previous_f_[h];
-        }
-        previous_g_[h] = g[k];
-        previous_f_[h] = f;
-        if (accelerate) {
-          for (int j = 0; j < held; ++j) {
-            const double column = delta_f_[static_cast<std::size_t>(j)][h];
-            gram[j] += newest_f[h] * column;
-            along[j] += column * f;
-          }
-        }
-      }
-    }
     double* sums = partial_.data() + chunk * static_cast<std::size_t>(stride);
-    for (int j = 0; j < held; ++j) {
-      sums[j] = gram[j];
-      sums[history + j] = along[j];
-    }
-    sums[2 * history] = largest;
+    with_history(accelerate ? held : 0, [&]<int Held>() { difference_rows<Held>(pass, begin, end, sums, sums + history, sums[2 * history]); });
   });
   has_previous_ = true;
   const std::size_t chunks = chunk_count(rows);
@@ -513,14 +542,16 @@ void ArapRefinement::mix() {
     return;
   }
   for_each_chunk(rows, [&](std::size_t, std::size_t begin, std::size_t end) {
-    for (std::size_t row = begin; row < end; ++row) {
-      for (std::size_t c = 0; c < 3; ++c) {
-        const std::size_t k = kStride * row + c, h = 3 * row + c;
-        double value = g[k];
-        for (int j = 0; j < m; ++j) value -= theta(j) * delta_g_[static_cast<std::size_t>(j)][h];
-        x[k] = value;
+    with_history(m, [&]<int Held>() {
+      for (std::size_t row = begin; row < end; ++row) {
+        for (std::size_t c = 0; c < 3; ++c) {
+          const std::size_t k = kStride * row + c, h = 3 * row + c;
+          double value = g[k];
+          for (int j = 0; j < Held; ++j) value -= theta(j) * delta_g_[static_cast<std::size_t>(j)][h];
+          x[k] = value;
+        }
       }
-    }
+    });
   });
   mixed_ = true;
   timings_.acceleration_ms = milliseconds_since(start);
