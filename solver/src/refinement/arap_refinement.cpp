@@ -15,6 +15,7 @@
 #include "hdeform/rotation_fit.h"
 #include "hdeform/stopwatch.h"
 #include "lanes.h"
+#include "rotation_newton.h"
 #include "target_clones.h"
 
 namespace hdeform::detail {
@@ -59,33 +60,122 @@ static_assert(kStride == 4, "the gathers below load a row of positions as four l
 // list carries this many padding entries so the look-ahead stays inside it.
 constexpr std::size_t kPairsAhead = 48;
 
-// The local step's matrices A_i = Σ_v p'_v k_ivᵀ of the rotation vertices [first, first + count):
-// a column of A per vector, the rows of positions (x, y, z, pad) in the lanes. Each entry is the
-// sum of its products in pair order, as a scalar loop would add them. Beside them each vertex's
-// share of the deformed edges' energy, Σ_v W_iv ‖p'_v − p'_i‖², from the rows already loaded.
+// The local step's matrix A_i = Σ_v p'_v k_ivᵀ of rotation vertex i as three columns, the rows of
+// positions (x, y, z, pad) in the lanes, each entry the sum of its products in pair order, as a
+// scalar loop would add them; beside it the vertex's share of the deformed edges' energy,
+// Σ_v W_iv ‖p'_v − p'_i‖², from the rows already loaded.
+template <class Coefficient>
+[[gnu::always_inline]] inline void gather_covariance(const std::size_t* pair_start, const int* pair_vertex, const Coefficient* coefficient,
+                                                     const double* positions, std::size_t i, Lanes4 (&column)[3], double& edge_energy) {
+  // (Sums in locals, not in `column`: summed where the caller's array is, they stayed in memory.)
+  Lanes4 sum0 = {}, sum1 = {}, sum2 = {}, energy = {}, self;
+  load_lanes(positions + kStride * i, self);
+  for (std::size_t p = pair_start[i]; p < pair_start[i + 1]; ++p) {
+    __builtin_prefetch(positions + kStride * static_cast<std::size_t>(pair_vertex[p + kPairsAhead]));
+    Lanes4 position, c;
+    load_lanes(positions + kStride * static_cast<std::size_t>(pair_vertex[p]), position);
+    load_lanes(coefficient[p].values.data(), c);  // k_iv and W_iv
+    sum0 += position * c[0];
+    sum1 += position * c[1];
+    sum2 += position * c[2];
+    const Lanes4 edge = position - self;
+    energy += (edge * edge) * c[3];
+  }
+  column[0] = sum0;
+  column[1] = sum1;
+  column[2] = sum2;
+  edge_energy = (energy[0] + energy[1]) + energy[2];  // the pad lane is zero
+}
+
+// The matrices A_i of the rotation vertices [first, first + count), for fits that look at them
+// one by one (the turn limit).
 template <class Coefficient>
 HDEFORM_TARGET_CLONES("avx2", "default")
 void gather_covariances(const std::size_t* pair_start, const int* pair_vertex, const Coefficient* coefficient, const double* positions,
                         std::size_t first, std::size_t count, Eigen::Matrix3d* covariance, double* edge_energy) {
   for (std::size_t k = 0; k < count; ++k) {
-    Lanes4 column[3] = {}, energy = {}, self;
-    load_lanes(positions + kStride * (first + k), self);
-    for (std::size_t p = pair_start[first + k]; p < pair_start[first + k + 1]; ++p) {
-      __builtin_prefetch(positions + kStride * static_cast<std::size_t>(pair_vertex[p + kPairsAhead]));
-      Lanes4 position, c;
-      load_lanes(positions + kStride * static_cast<std::size_t>(pair_vertex[p]), position);
-      load_lanes(coefficient[p].values.data(), c);  // k_iv and W_iv
-      column[0] += position * c[0];
-      column[1] += position * c[1];
-      column[2] += position * c[2];
-      const Lanes4 edge = position - self;
-      energy += (edge * edge) * c[3];
-    }
+    Lanes4 column[3];
+    gather_covariance(pair_start, pair_vertex, coefficient, positions, first + k, column, edge_energy[k]);
     double* out = covariance[k].data();  // column-major
     for (int j = 0; j < 3; ++j) {
       for (int i = 0; i < 3; ++i) out[3 * j + i] = column[j][i];
     }
-    edge_energy[k] = (energy[0] + energy[1]) + energy[2];  // the pad lane is zero
+  }
+}
+
+// Four rows of four lanes as four columns: out[k] holds lane k of each row.
+[[gnu::always_inline]] inline void transpose(const Lanes4& r0, const Lanes4& r1, const Lanes4& r2, const Lanes4& r3, Lanes4 (&out)[4]) {
+  const Lanes4 low01 = __builtin_shufflevector(r0, r1, 0, 4, 2, 6), high01 = __builtin_shufflevector(r0, r1, 1, 5, 3, 7);
+  const Lanes4 low23 = __builtin_shufflevector(r2, r3, 0, 4, 2, 6), high23 = __builtin_shufflevector(r2, r3, 1, 5, 3, 7);
+  out[0] = __builtin_shufflevector(low01, low23, 0, 1, 4, 5);
+  out[1] = __builtin_shufflevector(high01, high23, 0, 1, 4, 5);
+  out[2] = __builtin_shufflevector(low01, low23, 2, 3, 6, 7);
+  out[3] = __builtin_shufflevector(high01, high23, 2, 3, 6, 7);
+}
+
+// The local step of the rotation vertices [first, first + count) without a turn limit, four at a
+// time: their matrices A_i gathered (gather_covariance), turned in registers into the lanes of
+// Newton's method (rotation_newton.h) with their starting rotations, fitted, and the rotations
+// written back. The bits of hdeform::fit_rotations on the same matrices: only the data's path
+// differs (through memory, the matrices' copies in and out of the lanes took about a third of the
+// fits' time). objective and edge_energy are indexed from first.
+template <class Coefficient>
+HDEFORM_TARGET_CLONES("avx2", "default")
+void fit_covariances(const std::size_t* pair_start, const int* pair_vertex, const Coefficient* coefficient, const double* positions,
+                     const Eigen::Matrix3d* start, std::size_t first, std::size_t count, double tolerance, int steps, Eigen::Matrix3d* rotation,
+                     double* objective, double* edge_energy) {
+  using rotation_lanes::kLanes;
+  for (std::size_t group = 0; group < count; group += kLanes) {
+    const std::size_t lanes = std::min<std::size_t>(kLanes, count - group);
+    Lanes4 a_column[kLanes][3], start_column[kLanes][3];
+    for (std::size_t lane = 0; lane < kLanes; ++lane) {
+      // A short group repeats its last vertex in the spare lanes, which are not written back.
+      const std::size_t i = first + group + std::min(lane, lanes - 1);
+      double energy;
+      gather_covariance(pair_start, pair_vertex, coefficient, positions, i, a_column[lane], energy);
+      if (lane < lanes) edge_energy[group + lane] = energy;
+      const double* r = start[i].data();  // column-major: three overlapping loads within the matrix
+      Lanes4 last;
+      load_lanes(r, start_column[lane][0]);
+      load_lanes(r + 3, start_column[lane][1]);
+      load_lanes(r + 5, last);
+      start_column[lane][2] = __builtin_shufflevector(last, last, 1, 2, 3, 3);
+    }
+    rotation_lanes::Matrix3<Lanes4> a, from;
+    for (int j = 0; j < 3; ++j) {
+      Lanes4 rows[kLanes];
+      transpose(a_column[0][j], a_column[1][j], a_column[2][j], a_column[3][j], rows);
+      for (int i = 0; i < 3; ++i) a.m[i][j] = rows[i];
+      transpose(start_column[0][j], start_column[1][j], start_column[2][j], start_column[3][j], rows);
+      for (int i = 0; i < 3; ++i) from.m[i][j] = rows[i];
+    }
+    rotation_lanes::LaneFit<Lanes4> fit = rotation_lanes::newton(a, from, tolerance, steps);
+    for (std::size_t lane = 0; lane < lanes; ++lane) {
+      if (fit.needs_svd[lane] == 0) continue;
+      Eigen::Matrix3d a_lane;
+      RotationFit one;
+      for (int i = 0; i < 3; ++i) {
+        for (int j = 0; j < 3; ++j) {
+          a_lane(i, j) = a.m[i][j][lane];
+          one.rotation(i, j) = fit.rotation.m[i][j][lane];
+        }
+      }
+      one.objective = fit.objective[lane];
+      rotation_lanes::finish_with_svd(a_lane, one);
+      for (int i = 0; i < 3; ++i) {
+        for (int j = 0; j < 3; ++j) fit.rotation.m[i][j][lane] = one.rotation(i, j);
+      }
+      fit.objective[lane] = one.objective;
+    }
+    Lanes4 columns[3][kLanes];  // columns[j][lane]: column j of the lane's rotation, (x, y, z, 0)
+    for (int j = 0; j < 3; ++j) transpose(fit.rotation.m[0][j], fit.rotation.m[1][j], fit.rotation.m[2][j], Lanes4{}, columns[j]);
+    for (std::size_t lane = 0; lane < lanes; ++lane) {
+      double* out = rotation[first + group + lane].data();
+      store_lanes(columns[0][lane], out);      // the pad lands on column 1's first entry, written next
+      store_lanes(columns[1][lane], out + 3);  // and this one's on column 2's
+      store_lanes(__builtin_shufflevector(columns[1][lane], columns[2][lane], 2, 4, 5, 6), out + 5);
+      objective[group + lane] = fit.objective[lane];
+    }
   }
 }
 
@@ -591,13 +681,23 @@ double ArapRefinement::fit_rotations(const std::vector<Eigen::Matrix3d>& start_r
   const std::size_t chunks = chunk_count(count);
   for_each_chunk(count, [&](std::size_t chunk, std::size_t begin, std::size_t end) {
     double sum = 0.0, unlimited = 0.0, deformed = 0.0;
-    // A block's matrices are fitted together, several in SIMD lanes (rotation_fit.h).
+    // A block's matrices are fitted together, several in SIMD lanes (rotation_newton.h).
     constexpr std::size_t kBlock = 64;
     std::array<Eigen::Matrix3d, kBlock> covariance;
-    std::array<double, kBlock> edge_energy;
+    std::array<double, kBlock> edge_energy, objective;
     std::array<RotationFit, kBlock> fits;
     for (std::size_t first = begin; first < end; first += kBlock) {
       const std::size_t block = std::min(kBlock, end - first);
+      if (!turn_axis_) {
+        fit_covariances(local_start_.data(), local_vertex_.data(), local_coefficient_.data(), positions_.data(), start_rotations.data(), first,
+                        block, kRotationTolerance, steps, rotations.data(), objective.data(), edge_energy.data());
+        for (std::size_t k = 0; k < block; ++k) {
+          deformed += edge_energy[k];
+          unlimited += objective[k];
+          sum += objective[k];
+        }
+        continue;
+      }
       gather_covariances(local_start_.data(), local_vertex_.data(), local_coefficient_.data(), positions_.data(), first, block, covariance.data(),
                          edge_energy.data());
       for (std::size_t k = 0; k < block; ++k) deformed += edge_energy[k];
