@@ -8,6 +8,7 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <numbers>
 #include <numeric>
 #include <set>
@@ -406,6 +407,58 @@ TEST(DetailEncoding, SomeVerticesAreRebuiltAsTheWholeRebuildDoesAndOnlyThey) {
   EXPECT_THROW(encoding.reconstruct(bent, positions, outside), std::invalid_argument);
   Eigen::MatrixXd small(3, 3);
   EXPECT_THROW(encoding.reconstruct(bent, small, some), std::invalid_argument);
+}
+
+// A rebuild that skips the foot triangles whose vertices are all in a set (the constrained ones,
+// which the deformer places itself) leaves exactly those vertices as they were, and gives every
+// other vertex the whole rebuild's bits. Which triangles qualify is worked out here from the feet.
+TEST(DetailEncoding, TrianglesWhoseVerticesAreAllGivenAreSkippedAndNothingElse) {
+  const Relief relief = bar_with_relief();
+  const BaseMesh base = simplify_to_base(relief.mesh, relief.mesh.vertex_count() / 10);
+  const DetailEncoding encoding(relief.mesh, base);
+  Eigen::MatrixXd bent = base.mesh.positions;
+  for (Eigen::Index j = 0; j < bent.rows(); ++j) bent.row(j) += Eigen::RowVector3d(0.3 * bent(j, 2) * bent(j, 2), 0.0, 0.1 * bent(j, 0));
+  Eigen::MatrixXd whole;
+  encoding.reconstruct(bent, whole);
+  // The vertices of the bar's upper half, and a few scattered below.
+  const double middle = 0.5 * (relief.mesh.positions.col(2).minCoeff() + relief.mesh.positions.col(2).maxCoeff());
+  std::vector<int> given;
+  for (Eigen::Index v = 0; v < relief.mesh.vertex_count(); ++v) {
+    if (relief.mesh.positions(v, 2) > middle || v % 7 == 0) given.push_back(static_cast<int>(v));
+  }
+  std::set<int> in_set(given.begin(), given.end());
+  // A vertex with a foot and no base vertex of its own is rebuilt from its foot triangle; the
+  // triangle is skipped when every such vertex on it is given.
+  std::map<std::array<int, 3>, bool> all_given;
+  auto key_of = [&](int v) {
+    std::array<int, 3> corners = encoding.foot_corners(v);
+    std::sort(corners.begin(), corners.end());
+    return corners;
+  };
+  auto rebuilt_from_foot = [&](int v) { return encoding.base_vertex(v) < 0 && encoding.foot_corners(v)[0] >= 0; };
+  for (int v = 0; v < static_cast<int>(relief.mesh.vertex_count()); ++v) {
+    if (!rebuilt_from_foot(v)) continue;
+    const auto [at, inserted] = all_given.emplace(key_of(v), true);
+    at->second = at->second && in_set.count(v) > 0;
+  }
+  const std::vector<char> skip = encoding.triangles_only_of(given);
+  const auto skipped = std::count(skip.begin(), skip.end(), 1);
+  EXPECT_EQ(skipped, std::count_if(all_given.begin(), all_given.end(), [](const auto& entry) { return entry.second; }));
+  EXPECT_GT(skipped, 0);
+  Eigen::MatrixXd positions = Eigen::MatrixXd::Constant(relief.mesh.vertex_count(), 3, 42.0);
+  encoding.reconstruct(bent, positions, skip);
+  int kept = 0;
+  for (int v = 0; v < static_cast<int>(positions.rows()); ++v) {
+    const bool skipped_vertex = rebuilt_from_foot(v) && all_given.at(key_of(v));
+    kept += skipped_vertex ? 1 : 0;
+    if (skipped_vertex) EXPECT_TRUE((positions.row(v).array() == 42.0).all()) << v;
+    else EXPECT_TRUE((positions.row(v).array() == whole.row(v).array()).all()) << v;
+  }
+  EXPECT_GT(kept, 0);
+  EXPECT_THROW(encoding.reconstruct(bent, positions, std::vector<char>(skip.size() - 1, 0)), std::invalid_argument);
+  Eigen::MatrixXd small(3, 3);
+  EXPECT_THROW(encoding.reconstruct(bent, small, skip), std::invalid_argument);
+  EXPECT_THROW(encoding.triangles_only_of(std::vector<int>{-1}), std::invalid_argument);
 }
 
 TEST(Multiresolution, AHandleSmallerThanABaseTriangleReachesTheBase) {

@@ -225,6 +225,9 @@ class Deformer {
   void set_up_on_base(const ProgressCallback& progress);
   /// Fixed vertices at rest, handle vertices moved by their handle's transform.
   void write_constrained(std::span<const HandleTransform> transforms, Eigen::MatrixXd& positions) const;
+  /// Multiresolution: the whole fine mesh from base_positions_, its constrained vertices where
+  /// the last transforms put them (`positions` has the fine size).
+  void rebuild_from_base(Eigen::MatrixXd& positions) const;
   // deform(), and deform_vertices() with `only_vertices`: on a base, only those rows are rebuilt.
   void update(std::span<const HandleTransform> transforms, Eigen::MatrixXd& positions, RefinementStart start,
               const std::span<const int>* only_vertices);
@@ -262,6 +265,9 @@ class Deformer {
   /// Multiresolution: the deformer of the base, and its last positions.
   std::unique_ptr<Deformer> base_;
   Eigen::MatrixXd base_positions_;
+  /// The foot triangles all of whose fine vertices are constrained: write_constrained places
+  /// them, so the rebuild skips them.
+  std::vector<char> rebuild_skip_;
 };
 
 }  // namespace hdeform

@@ -86,6 +86,12 @@ class DetailEncoding {
   /// whole rebuild gives it; the other rows keep what they held (`fine_positions` must have the
   /// fine size).
   void reconstruct(const Eigen::MatrixXd& base_positions, Eigen::MatrixXd& fine_positions, std::span<const int> vertices) const;
+  /// The foot triangles all of whose fine vertices are among `vertices` (say, the constrained ones,
+  /// which the caller puts where their constraints say), marked 1: a whole rebuild may skip them.
+  std::vector<char> triangles_only_of(std::span<const int> vertices) const;
+  /// The whole rebuild, except the vertices of the foot triangles `skip` marks (from
+  /// triangles_only_of), which keep what they held.
+  void reconstruct(const Eigen::MatrixXd& base_positions, Eigen::MatrixXd& fine_positions, const std::vector<char>& skip) const;
 
   /// Per-vertex values of the base carried to the fine mesh, linearly over the foot triangles.
   Eigen::VectorXd interpolate(const Eigen::VectorXd& base_values) const;
@@ -101,6 +107,7 @@ class DetailEncoding {
  private:
   struct FineRow;
   void check_base(const Eigen::MatrixXd& base_positions) const;
+  void rebuild(const Eigen::MatrixXd& base_positions, Eigen::MatrixXd& fine_positions, const char* skip) const;
   // A fine vertex's position from its row and its foot triangle, as the whole rebuild makes it.
   Eigen::Vector3d position_of(const FineRow& row, Eigen::Index triangle, const Eigen::MatrixXd& base_positions) const;
 

@@ -406,9 +406,12 @@ void Deformer::update(std::span<const HandleTransform> transforms, Eigen::Matrix
   if (base_) {
     base_->deform(transforms, base_positions_, start);
     const auto detail_began = Clock::now();
-    if (only_vertices) operators_->multiresolution->encoding.reconstruct(base_positions_, positions, *only_vertices);
-    else operators_->multiresolution->encoding.reconstruct(base_positions_, positions);
-    write_constrained(transforms, positions);
+    if (only_vertices) {
+      operators_->multiresolution->encoding.reconstruct(base_positions_, positions, *only_vertices);
+      write_constrained(transforms, positions);
+    } else {
+      rebuild_from_base(positions);
+    }
     last_update_ = base_->last_update();
     last_update_.detail_ms = milliseconds_since(detail_began);
     last_update_.total_ms = milliseconds_since(began);
@@ -498,8 +501,7 @@ bool Deformer::deform_vertices(std::span<const HandleTransform> transforms, Eige
 
 void Deformer::complete(Eigen::MatrixXd& positions) {
   if (!base_) return;
-  operators_->multiresolution->encoding.reconstruct(base_positions_, positions);
-  write_constrained(edited_, positions);
+  rebuild_from_base(positions);
 }
 
 int Deformer::refine(Eigen::MatrixXd& positions, int max_iterations) {
@@ -508,10 +510,7 @@ int Deformer::refine(Eigen::MatrixXd& positions, int max_iterations) {
   }
   if (base_) {
     const int iterations = base_->refine(base_positions_, max_iterations);
-    if (iterations > 0) {
-      operators_->multiresolution->encoding.reconstruct(base_positions_, positions);
-      write_constrained(edited_, positions);
-    }
+    if (iterations > 0) rebuild_from_base(positions);
     return iterations;
   }
   if (!refinement_) prepare_refinement();

@@ -26,6 +26,12 @@ void Deformer::set_up_on_base(const ProgressCallback& progress) {
   timings_.base_ms = multiresolution.ms;
   base_positions_ = multiresolution.base.mesh.positions;
   edited_.resize(handle_count());
+  rebuild_skip_ = multiresolution.encoding.triangles_only_of(partition_.constrained_vertices);
+}
+
+void Deformer::rebuild_from_base(Eigen::MatrixXd& positions) const {
+  operators_->multiresolution->encoding.reconstruct(base_positions_, positions, rebuild_skip_);
+  write_constrained(edited_, positions);
 }
 
 void Deformer::write_constrained(std::span<const HandleTransform> transforms, Eigen::MatrixXd& positions) const {

@@ -136,7 +136,7 @@ template <class Row>
 template <class Row>
 HDEFORM_TARGET_CLONES("avx2", "default")
 void rebuild_by_triangle(Eigen::Index first, Eigen::Index last, const Eigen::MatrixXi& triangles, const int* triangle_rows, const Row* rows,
-                         const Eigen::MatrixXd& base_positions, std::array<double*, 3> column) {
+                         const char* skip, const Eigen::MatrixXd& base_positions, std::array<double*, 3> column) {
   for (Eigen::Index t = first; t != last; ++t) {
     // The corners of the triangles to come are scattered over the base: asked for early.
     if (t + kCornersAhead < last) {
@@ -146,7 +146,7 @@ void rebuild_by_triangle(Eigen::Index first, Eigen::Index last, const Eigen::Mat
       }
     }
     const int begin = triangle_rows[t], end = triangle_rows[t + 1];
-    if (begin == end) continue;
+    if (begin == end || (skip != nullptr && skip[t] != 0)) continue;
     FootMap map;
     base_triangle_map(base_positions, triangles, t, map);
     for (int i = begin; i != end; ++i) {
@@ -491,6 +491,39 @@ Eigen::Vector3d DetailEncoding::position_of(const FineRow& row, Eigen::Index tri
 }
 
 void DetailEncoding::reconstruct(const Eigen::MatrixXd& base_positions, Eigen::MatrixXd& fine_positions) const {
+  rebuild(base_positions, fine_positions, nullptr);
+}
+
+std::vector<char> DetailEncoding::triangles_only_of(std::span<const int> vertices) const {
+  std::vector<char> among(static_cast<std::size_t>(fine_count()), 0);
+  for (const int v : vertices) {
+    if (v < 0 || v >= fine_count()) throw std::invalid_argument("DetailEncoding::triangles_only_of: vertex " + std::to_string(v) + " is not in the fine mesh");
+    among[static_cast<std::size_t>(v)] = 1;
+  }
+  const auto triangles = static_cast<std::size_t>(base_triangles_.rows());
+  std::vector<char> only(triangles, 0);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, triangles, kTriangleGrain), [&](const auto& range) {
+    for (std::size_t t = range.begin(); t != range.end(); ++t) {
+      const auto first = rows_.begin() + triangle_rows_[t], last = rows_.begin() + triangle_rows_[t + 1];
+      only[t] = first != last && std::all_of(first, last, [&](const FineRow& row) { return among[static_cast<std::size_t>(row.vertex)] != 0; });
+    }
+  });
+  return only;
+}
+
+void DetailEncoding::reconstruct(const Eigen::MatrixXd& base_positions, Eigen::MatrixXd& fine_positions, const std::vector<char>& skip) const {
+  if (skip.size() != static_cast<std::size_t>(base_triangles_.rows())) {
+    throw std::invalid_argument("DetailEncoding::reconstruct: " + std::to_string(skip.size()) + " triangles marked for " +
+                                std::to_string(base_triangles_.rows()) + " foot triangles");
+  }
+  if (fine_positions.rows() != fine_count() || fine_positions.cols() != 3) {
+    throw std::invalid_argument("DetailEncoding::reconstruct: a rebuild that skips vertices needs the fine positions (" + std::to_string(fine_count()) +
+                                "×3) to keep them");
+  }
+  rebuild(base_positions, fine_positions, skip.data());
+}
+
+void DetailEncoding::rebuild(const Eigen::MatrixXd& base_positions, Eigen::MatrixXd& fine_positions, const char* skip) const {
   check_base(base_positions);
   fine_positions.resize(fine_count(), 3);
   const trace::Scope traced("fine mesh from the base", "update");
@@ -502,7 +535,7 @@ void DetailEncoding::reconstruct(const Eigen::MatrixXd& base_positions, Eigen::M
   // (a table of maps written and read back cost a fifth of the rebuild). The vertices' own rows
   // come in sequence; their positions go where the vertices are.
   tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, base_triangles_.rows(), kTriangleGrain), [&](const auto& range) {
-    rebuild_by_triangle(range.begin(), range.end(), base_triangles_, triangle_rows_.data(), rows_.data(), base_positions, column);
+    rebuild_by_triangle(range.begin(), range.end(), base_triangles_, triangle_rows_.data(), rows_.data(), skip, base_positions, column);
   });
   // None on the 3.3M Buddha; a mesh with many coordinates near zero may have more: in parallel.
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, inexact_rest_.size(), kVertexGrain), [&](const auto& range) {
