@@ -380,14 +380,27 @@ TEST(Multiresolution, SomeVerticesNowAndTheRestLaterGiveTheWholeUpdate) {
   EXPECT_TRUE((exact_positions.array() == exact_expected.array()).all());
 }
 
-TEST(DetailEncoding, SomeVerticesAreRebuiltAsTheWholeRebuildDoesAndOnlyThey) {
-  const Relief relief = bar_with_relief();
-  const BaseMesh base = simplify_to_base(relief.mesh, relief.mesh.vertex_count() / 10);
-  const DetailEncoding encoding(relief.mesh, base);
-  Eigen::MatrixXd bent = base.mesh.positions;
+// The relief bar's encoding against a base of a tenth of its vertices, that base bent, and the
+// whole rebuild on it.
+struct BentEncoding {
+  Relief relief;
+  DetailEncoding encoding;
+  Eigen::MatrixXd bent, whole;
+};
+BentEncoding bent_encoding() {
+  BentEncoding result;
+  result.relief = bar_with_relief();
+  const BaseMesh base = simplify_to_base(result.relief.mesh, result.relief.mesh.vertex_count() / 10);
+  result.encoding = DetailEncoding(result.relief.mesh, base);
+  result.bent = base.mesh.positions;
+  Eigen::MatrixXd& bent = result.bent;
   for (Eigen::Index j = 0; j < bent.rows(); ++j) bent.row(j) += Eigen::RowVector3d(0.3 * bent(j, 2) * bent(j, 2), 0.0, 0.1 * bent(j, 0));
-  Eigen::MatrixXd whole;
-  encoding.reconstruct(bent, whole);
+  result.encoding.reconstruct(bent, result.whole);
+  return result;
+}
+
+TEST(DetailEncoding, SomeVerticesAreRebuiltAsTheWholeRebuildDoesAndOnlyThey) {
+  const auto [relief, encoding, bent, whole] = bent_encoding();
   const std::vector<int> some{0, 3, 17, 4, static_cast<int>(relief.mesh.vertex_count()) - 1};  // any order
   Eigen::MatrixXd positions = Eigen::MatrixXd::Constant(relief.mesh.vertex_count(), 3, 42.0);
   encoding.reconstruct(bent, positions, some);
@@ -413,13 +426,7 @@ TEST(DetailEncoding, SomeVerticesAreRebuiltAsTheWholeRebuildDoesAndOnlyThey) {
 // which the deformer places itself) leaves exactly those vertices as they were, and gives every
 // other vertex the whole rebuild's bits. Which triangles qualify is worked out here from the feet.
 TEST(DetailEncoding, TrianglesWhoseVerticesAreAllGivenAreSkippedAndNothingElse) {
-  const Relief relief = bar_with_relief();
-  const BaseMesh base = simplify_to_base(relief.mesh, relief.mesh.vertex_count() / 10);
-  const DetailEncoding encoding(relief.mesh, base);
-  Eigen::MatrixXd bent = base.mesh.positions;
-  for (Eigen::Index j = 0; j < bent.rows(); ++j) bent.row(j) += Eigen::RowVector3d(0.3 * bent(j, 2) * bent(j, 2), 0.0, 0.1 * bent(j, 0));
-  Eigen::MatrixXd whole;
-  encoding.reconstruct(bent, whole);
+  const auto [relief, encoding, bent, whole] = bent_encoding();
   // The vertices of the bar's upper half, and a few scattered below.
   const double middle = 0.5 * (relief.mesh.positions.col(2).minCoeff() + relief.mesh.positions.col(2).maxCoeff());
   std::vector<int> given;
