@@ -1,9 +1,10 @@
 #pragma once
 // The state and the stages of the as-rigid-as-possible refinement (refinement.h) for one Deformer:
 // set up once per mesh and partition, then per edit begin() and one iteration after another, each
-// iteration the stages assemble → solve → mix → fit, which the Deformer runs as nodes of its update
-// graph. Every stage is parallel over rows or vertices with sums in a fixed order, so the result
-// is the same bits for any number of threads; nothing allocates after construction.
+// iteration the stages assemble → solve → mix → fit (the local step, in arap_local_step.cpp),
+// which the Deformer runs as nodes of its update graph. Every stage is parallel over rows or
+// vertices with sums in a fixed order, so the result is the same bits for any number of threads;
+// nothing allocates after construction.
 //
 // Both steps are written over pairs (i, v) of a vertex and a neighbour (or itself), with
 // coefficients that depend on the rest shape and the per-triangle scales only:
