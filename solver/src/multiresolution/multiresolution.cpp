@@ -497,7 +497,9 @@ void DetailEncoding::reconstruct(const Eigen::MatrixXd& base_positions, Eigen::M
 std::vector<char> DetailEncoding::triangles_only_of(std::span<const int> vertices) const {
   std::vector<char> among(static_cast<std::size_t>(fine_count()), 0);
   for (const int v : vertices) {
-    if (v < 0 || v >= fine_count()) throw std::invalid_argument("DetailEncoding::triangles_only_of: vertex " + std::to_string(v) + " is not in the fine mesh");
+    if (v < 0 || v >= fine_count()) {
+      throw std::invalid_argument("DetailEncoding::triangles_only_of: vertex " + std::to_string(v) + " is not in the fine mesh");
+    }
     among[static_cast<std::size_t>(v)] = 1;
   }
   const auto triangles = static_cast<std::size_t>(base_triangles_.rows());

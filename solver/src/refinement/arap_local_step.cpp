@@ -192,6 +192,7 @@ double ArapRefinement::fit_rotations(const std::vector<Eigen::Matrix3d>& start_r
         }
         continue;
       }
+      // A turn limit looks at each vertex's matrix and fit: they go through memory.
       gather_covariances(local_start_.data(), local_vertex_.data(), local_coefficient_.data(), positions_.data(), first, block, covariance.data(),
                          edge_energy.data());
       for (std::size_t k = 0; k < block; ++k) deformed += edge_energy[k];
@@ -201,7 +202,7 @@ double ArapRefinement::fit_rotations(const std::vector<Eigen::Matrix3d>& start_r
         const std::size_t i = first + k;
         RotationFit& fit = fits[k];
         unlimited += fit.objective;
-        if (turn_axis_) keep_turns(i, covariance[k], start_rotations[i], fit);
+        keep_turns(i, covariance[k], start_rotations[i], fit);
         rotations[i] = fit.rotation;
         sum += fit.objective;
       }
