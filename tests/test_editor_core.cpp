@@ -1,6 +1,8 @@
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <fstream>
 #include <mutex>
 #include <random>
@@ -581,6 +583,42 @@ TEST(FrameStatistics, LatencyRunsFromEachInputToTheFirstFinishedFrameShowingItsS
   statistics.restart();
   EXPECT_TRUE(statistics.latencies().empty());
   EXPECT_TRUE(statistics.frame_intervals().empty());
+}
+
+// A benchmark's report covers its whole run: at 40 frames per second a 30-second drag has 1,200
+// frames, twice what the live window keeps (its figures once counted only the last 600).
+TEST(FrameStatistics, ARestartRecordsEveryFrameAndLatencyBeyondTheLiveWindow) {
+  using namespace std::chrono_literals;
+  cli::FrameStatistics statistics;
+  const auto t0 = cli::FrameStatistics::Clock::now();
+  const cli::FrameStatistics::Clock::time_point before[] = {t0};
+  statistics.note_request(1, before);
+  statistics.note_submitted(1, 1, false, t0);
+  statistics.note_submitted(2, 1, false, t0 + 1ms);
+  statistics.note_finished(1, t0 + 2ms);
+  statistics.note_finished(2, t0 + 3ms);
+  EXPECT_TRUE(statistics.recorded_frame_intervals().empty()) << "nothing is recorded before a restart";
+  EXPECT_TRUE(statistics.recorded_latencies().empty());
+  statistics.restart();
+  constexpr int kFrames = 1500;
+  for (int k = 1; k <= kFrames; ++k) {
+    const auto at = t0 + std::chrono::milliseconds(25 * k);
+    const cli::FrameStatistics::Clock::time_point input[] = {at - 5ms, at - 1ms};
+    statistics.note_request(static_cast<std::uint64_t>(k + 1), input);
+    statistics.note_submitted(static_cast<std::uint64_t>(k + 2), static_cast<std::uint64_t>(k + 1), false, at);
+    statistics.note_finished(static_cast<std::uint64_t>(k + 2), at + 10ms);
+  }
+  // The first frame after the restart has no interval (nothing finished before it since).
+  ASSERT_EQ(statistics.recorded_frame_intervals().size(), static_cast<std::size_t>(kFrames - 1));
+  EXPECT_TRUE(std::all_of(statistics.recorded_frame_intervals().begin(), statistics.recorded_frame_intervals().end(),
+                          [](double ms) { return std::abs(ms - 25.0) < 1e-9; }));
+  ASSERT_EQ(statistics.recorded_latencies().size(), static_cast<std::size_t>(2 * kFrames));
+  EXPECT_NEAR(statistics.recorded_latencies()[0], 15.0, 1e-9);
+  EXPECT_NEAR(statistics.recorded_latencies()[1], 11.0, 1e-9);
+  EXPECT_LT(statistics.frame_intervals().size(), statistics.recorded_frame_intervals().size()) << "the live window stays short";
+  statistics.restart();
+  EXPECT_TRUE(statistics.recorded_frame_intervals().empty());
+  EXPECT_TRUE(statistics.recorded_latencies().empty());
 }
 
 TEST(SyntheticDrag, MovesComeInOrderAndThePoseGoesToTheTargetAndBackEveryTwoSeconds) {

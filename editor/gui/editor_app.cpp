@@ -532,8 +532,8 @@ void EditorApp::take_benchmark_input() {
 }
 
 nlohmann::json EditorApp::drag_figures(double seconds) const {
-  const std::vector<double> frames = statistics_.frame_intervals();
-  const std::vector<double> latencies = statistics_.latencies();
+  const std::vector<double>& frames = statistics_.recorded_frame_intervals();
+  const std::vector<double>& latencies = statistics_.recorded_latencies();
   const auto extent = target_->extent();
   return {{"command", "gui --benchmark-drag"},
           {"mesh", mesh_name_},

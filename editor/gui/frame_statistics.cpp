@@ -43,11 +43,13 @@ void FrameStatistics::note_finished(std::uint64_t frame, Clock::time_point time)
   if (previous_finish_ != Clock::time_point{} && !after_idle) {
     intervals_.push_back(milliseconds_between(previous_finish_, time));
     keep_last(intervals_, kIntervalsKept);
+    if (recording_) recorded_intervals_.push_back(intervals_.back());
   }
   previous_finish_ = time;
   while (!waiting_inputs_.empty() && waiting_inputs_.front().first <= shown) {
     latencies_.push_back(milliseconds_between(waiting_inputs_.front().second, time));
     keep_last(latencies_, kLatenciesKept);
+    if (recording_) recorded_latencies_.push_back(latencies_.back());
     waiting_inputs_.pop_front();
   }
 }
@@ -73,6 +75,9 @@ void FrameStatistics::restart() {
   latencies_.clear();
   waiting_inputs_.clear();
   previous_finish_ = {};
+  recording_ = true;
+  recorded_intervals_.clear();
+  recorded_latencies_.clear();
 }
 
 }  // namespace hdeform::cli

@@ -27,15 +27,19 @@ class FrameStatistics {
   // A finished update's time.
   void note_update(double milliseconds);
 
-  // The last few hundred of each, oldest first.
+  // The last few hundred of each, oldest first (the live figures).
   std::vector<double> frame_intervals() const { return {intervals_.begin(), intervals_.end()}; }
   std::vector<double> latencies() const { return {latencies_.begin(), latencies_.end()}; }
+  // Every one since restart(), oldest first (a benchmark's whole run, however long).
+  const std::vector<double>& recorded_frame_intervals() const { return recorded_intervals_; }
+  const std::vector<double>& recorded_latencies() const { return recorded_latencies_; }
   // Frames submitted in the second before `now`.
   std::size_t frames_per_second(Clock::time_point now) const;
   // The median of the last 20 update times, or `fallback` before any.
   double recent_update_ms(double fallback) const;
 
-  // Forgets the frame and latency figures (the drag benchmark starts clean).
+  // Forgets the frame and latency figures and records every one from now on (the drag
+  // benchmark starts clean, and reports its whole run).
   void restart();
 
  private:
@@ -51,6 +55,9 @@ class FrameStatistics {
   std::deque<std::pair<std::uint64_t, Clock::time_point>> waiting_inputs_;
   std::deque<double> latencies_;
   std::deque<double> updates_;
+  bool recording_ = false;
+  std::vector<double> recorded_intervals_;
+  std::vector<double> recorded_latencies_;
 };
 
 }  // namespace hdeform::cli
