@@ -9,6 +9,7 @@
 #include <limits>
 #include <memory>
 #include <numeric>
+#include <optional>
 #include <span>
 #include <utility>
 
@@ -192,7 +193,16 @@ std::vector<int> nearest_base_along_surface(const Mesh& fine, const std::vector<
       queue.push_back(static_cast<int>(v));
     }
   }
+  // The queue's vertices lie all over the mesh: their triangle lists, and further ahead their
+  // lists' places, are asked for early.
+  constexpr std::size_t kListsAhead = 8, kPlacesAhead = 16;
   for (std::size_t head = 0; head < queue.size(); ++head) {
+    if (head + kPlacesAhead < queue.size()) __builtin_prefetch(&fine_incidence.start[static_cast<std::size_t>(queue[head + kPlacesAhead])]);
+    if (head + kListsAhead < queue.size()) {
+      for (const int t : fine_incidence.of(queue[head + kListsAhead])) {
+        for (int k = 0; k < 3; ++k) __builtin_prefetch(&fine.triangles(t, k));
+      }
+    }
     const int v = queue[head];
     for (const int t : fine_incidence.of(v)) {
       for (int k = 0; k < 3; ++k) {
@@ -214,9 +224,12 @@ DetailEncoding::DetailEncoding(const Mesh& fine, const BaseMesh& base)
   const auto n = static_cast<std::size_t>(fine.vertex_count());
   base_of_fine_.assign(n, -1);
   for (std::size_t j = 0; j < base.fine_vertex.size(); ++j) base_of_fine_[static_cast<std::size_t>(base.fine_vertex[j])] = static_cast<int>(j);
+  std::optional<trace::Scope> step(std::in_place, "encoding: incidence", "set-up");
   const Incidence fine_incidence = incidence(fine.triangles, fine.vertex_count());
   const Incidence base_incidence = incidence(base.mesh.triangles, base.mesh.vertex_count());
+  step.emplace("encoding: nearest base vertex", "set-up");
   const std::vector<int> nearest = nearest_base_along_surface(fine, base_of_fine_, fine_incidence);
+  step.emplace("encoding: feet and details", "set-up");
 
   foot_triangle_.assign(n, -1);
   Eigen::Matrix<double, Eigen::Dynamic, 2, Eigen::RowMajor> barycentric = Eigen::MatrixX2d::Zero(fine.vertex_count(), 2);
@@ -277,9 +290,13 @@ DetailEncoding::DetailEncoding(const Mesh& fine, const BaseMesh& base)
         const int k = base_triangles_(best, 0) == centre ? 0 : base_triangles_(best, 1) == centre ? 1 : 2;
         const double centre_weight = k == 0 ? 1.0 - best_weights[0] - best_weights[1] : best_weights[k - 1];
         if (!(centre_weight > 0.0)) {
+          // Not the centre's own triangles again: none of them can beat the best of them.
           candidates.clear();
           for (int corner_index = 0; corner_index < 3; ++corner_index) {
-            for (const int u : base_incidence.of(base_triangles_(best, corner_index))) candidates.push_back(u);
+            if (corner_index == k) continue;
+            for (const int u : base_incidence.of(base_triangles_(best, corner_index))) {
+              if (base_triangles_(u, 0) != centre && base_triangles_(u, 1) != centre && base_triangles_(u, 2) != centre) candidates.push_back(u);
+            }
           }
           std::sort(candidates.begin(), candidates.end());
           candidates.erase(std::unique(candidates.begin(), candidates.end()), candidates.end());
@@ -304,6 +321,7 @@ DetailEncoding::DetailEncoding(const Mesh& fine, const BaseMesh& base)
       rest_reconstruction.row(vertex) = from_lanes(reconstruction).transpose();
     }
   });
+  step.emplace("encoding: rows by foot triangle", "set-up");
   for (std::size_t v = 0; v < n; ++v) largest_detail_ = std::max(largest_detail_, detail.row(static_cast<Eigen::Index>(v)).norm());
 
   // The encoding's own triangle order: by last use in fine vertex order (base vertices aside), so
