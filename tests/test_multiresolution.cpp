@@ -236,6 +236,99 @@ TEST(DetailEncoding, ARebuildWritesEveryVertexWhateverTheMatrixHeld) {
   EXPECT_THROW(encoding.reconstruct(bent.topRows(bent.rows() - 1), reused), std::invalid_argument);
 }
 
+// The point of triangle (a, b, c) closest to p, found independently of the library's Voronoi
+// regions: the projection onto the plane where it falls inside, else the closest of the three
+// edges' closest points.
+Eigen::Vector3d closest_on_triangle(const Eigen::Vector3d& p, const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c) {
+  const Eigen::Vector3d e1 = b - a, e2 = c - a, d = p - a;
+  Eigen::Matrix2d gram;
+  gram << e1.dot(e1), e1.dot(e2), e1.dot(e2), e2.dot(e2);
+  const Eigen::Vector2d w = gram.ldlt().solve(Eigen::Vector2d(e1.dot(d), e2.dot(d)));
+  if (w[0] >= 0 && w[1] >= 0 && w[0] + w[1] <= 1) return a + w[0] * e1 + w[1] * e2;
+  auto on_segment = [&](const Eigen::Vector3d& from, const Eigen::Vector3d& to) -> Eigen::Vector3d {
+    const double s = std::clamp((p - from).dot(to - from) / (to - from).squaredNorm(), 0.0, 1.0);
+    return from + s * (to - from);
+  };
+  Eigen::Vector3d best = on_segment(a, b);
+  for (const Eigen::Vector3d& q : {on_segment(b, c), on_segment(c, a)}) {
+    if ((q - p).squaredNorm() < (best - p).squaredNorm()) best = q;
+  }
+  return best;
+}
+
+TEST(DetailEncoding, EachFootIsTheClosestFacingPointAroundTheNearestBaseVertex) {
+  // The documented rule, checked against a search written here: the nearest base vertex along
+  // the fine surface (fewest edges; a breadth-first search from every base vertex, in index
+  // order), then among the base triangles around it those facing the way the fine surface does
+  // first, and the closest of them. A wider search may only find a foot as good or better.
+  const Relief relief = bar_with_relief();
+  const Mesh& fine = relief.mesh;
+  const BaseMesh base = simplify_to_base(fine, fine.vertex_count() / 10);
+  const DetailEncoding encoding(fine, base);
+  const auto n = static_cast<std::size_t>(fine.vertex_count());
+  std::vector<std::vector<int>> fine_fan(n), base_fan(static_cast<std::size_t>(base.mesh.vertex_count()));
+  for (Eigen::Index t = 0; t < fine.triangle_count(); ++t) {
+    for (int k = 0; k < 3; ++k) fine_fan[static_cast<std::size_t>(fine.triangles(t, k))].push_back(static_cast<int>(t));
+  }
+  for (Eigen::Index t = 0; t < base.mesh.triangle_count(); ++t) {
+    for (int k = 0; k < 3; ++k) base_fan[static_cast<std::size_t>(base.mesh.triangles(t, k))].push_back(static_cast<int>(t));
+  }
+  std::vector<int> nearest(n, -1), queue;
+  for (std::size_t v = 0; v < n; ++v) {
+    if (const int j = encoding.base_vertex(static_cast<int>(v)); j >= 0) {
+      nearest[v] = j;
+      queue.push_back(static_cast<int>(v));
+    }
+  }
+  for (std::size_t head = 0; head < queue.size(); ++head) {
+    for (const int t : fine_fan[static_cast<std::size_t>(queue[head])]) {
+      for (int k = 0; k < 3; ++k) {
+        const auto w = static_cast<std::size_t>(fine.triangles(t, k));
+        if (nearest[w] < 0) {
+          nearest[w] = nearest[static_cast<std::size_t>(queue[head])];
+          queue.push_back(static_cast<int>(w));
+        }
+      }
+    }
+  }
+  Eigen::MatrixXd foot(fine.vertex_count(), 3);
+  for (int k = 0; k < 3; ++k) foot.col(k) = encoding.interpolate(base.mesh.positions.col(k));
+  auto corner = [&](int t, int k) -> Eigen::Vector3d { return base.mesh.positions.row(base.mesh.triangles(t, k)).transpose(); };
+  auto area = [&](const Eigen::Vector3d& a, const Eigen::Vector3d& b, const Eigen::Vector3d& c) { return Eigen::Vector3d((b - a).cross(c - a)); };
+  const double tolerance = 1e-12 * relief.diagonal;
+  int checked = 0, facing_feet = 0;
+  for (std::size_t v = 0; v < n; ++v) {
+    if (encoding.base_vertex(static_cast<int>(v)) >= 0) continue;
+    Eigen::Vector3d normal = Eigen::Vector3d::Zero();
+    for (const int t : fine_fan[v]) {
+      const Eigen::Vector3d a = fine.positions.row(fine.triangles(t, 0)), b = fine.positions.row(fine.triangles(t, 1)),
+                            c = fine.positions.row(fine.triangles(t, 2));
+      normal += area(a, b, c);
+    }
+    const Eigen::Vector3d p = fine.positions.row(static_cast<Eigen::Index>(v)).transpose();
+    const auto corners = encoding.foot_corners(static_cast<int>(v));
+    ASSERT_GE(corners[0], 0) << "vertex " << v << " has no foot";
+    const Eigen::Vector3d foot_area = area(base.mesh.positions.row(corners[0]), base.mesh.positions.row(corners[1]), base.mesh.positions.row(corners[2]));
+    const bool foot_faces = foot_area.dot(normal) > 0.0;
+    facing_feet += foot_faces ? 1 : 0;
+    const double foot_distance = (foot.row(static_cast<Eigen::Index>(v)).transpose() - p).norm();
+    for (const int t : base_fan[static_cast<std::size_t>(nearest[v])]) {
+      const Eigen::Vector3d a = corner(t, 0), b = corner(t, 1), c = corner(t, 2);
+      if (!(area(a, b, c).squaredNorm() > 0.0)) continue;
+      const bool faces = area(a, b, c).dot(normal) > 0.0;
+      if (faces) {
+        EXPECT_TRUE(foot_faces) << "vertex " << v << ": base triangle " << t << " faces its way, its foot's does not";
+      }
+      if (faces == foot_faces) {
+        EXPECT_LE(foot_distance, (closest_on_triangle(p, a, b, c) - p).norm() + tolerance) << "vertex " << v << ", base triangle " << t;
+      }
+    }
+    ++checked;
+  }
+  EXPECT_GT(checked, fine.vertex_count() / 2);
+  EXPECT_GT(facing_feet, checked * 9 / 10) << "a relief this shallow faces its base almost everywhere";
+}
+
 TEST(DetailEncoding, ValuesAreCarriedLinearly) {
   // A linear function on the base, interpolated over the feet, is that function at each foot:
   // at base vertices exactly, elsewhere within the detail's length times its slope.
