@@ -49,7 +49,7 @@ def triangle_normals(positions):
     return np.cross(positions[F[:, 1]] - positions[F[:, 0]], positions[F[:, 2]] - positions[F[:, 0]])
 
 
-# Where the detail is large next to the base's triangles (deep crevices), a few small triangles fold.
+# Where a base triangle lies over much smaller ones in a strongly curved place, a few of those fold.
 folded = np.sum((triangle_normals(results["exact"]) * triangle_normals(results["multiresolution"])).sum(axis=1) < 0)
 print(f"triangles facing the other way than in the exact solve: {folded:,} of {len(F):,}")
 out.mkdir(parents=True, exist_ok=True)
