@@ -19,19 +19,16 @@ namespace {
 // A plane quadric: the symmetric 4×4 matrix of Σ (nᵀp + d)² over planes, as its ten entries.
 struct Quadric {
   std::array<double, 10> q{};  // aa ab ac ad bb bc bd cc cd dd
-  // Σ of the planes' weights, and how many planes (weight / planes: their mean area). Floats: they
-  // only scale a cost that ranks collapses, and they keep a quadric at 88 bytes (in doubles the
-  // collapses took 3–4% longer on the 3.3M Buddha).
-  float weight = 0.0f;
-  float planes = 0.0f;
+  double weight = 0.0;         // Σ of the planes' weights
+  double planes = 0.0;         // how many planes (weight / planes: their mean area)
 
   static Quadric plane(const Eigen::Vector3d& n, double d, double weight) {
     Quadric result;
     const double a = n.x(), b = n.y(), c = n.z();
     result.q = {a * a, a * b, a * c, a * d, b * b, b * c, b * d, c * c, c * d, d * d};
     for (double& value : result.q) value *= weight;
-    result.weight = static_cast<float>(weight);
-    result.planes = 1.0f;
+    result.weight = weight;
+    result.planes = 1.0;
     return result;
   }
   Quadric& operator+=(const Quadric& other) {
@@ -361,14 +358,14 @@ class Collapser {
   Candidate cost_of(int u, int v) const {
     Quadric sum = quadric_[static_cast<std::size_t>(u)];
     sum += quadric_[static_cast<std::size_t>(v)];
-    const double squared_distance = std::max(0.0, sum.error(point(v))) / std::max(static_cast<double>(sum.weight), 1e-300);
-    // Where the mesh's triangles are smaller than its average, the cost is raised by the square
+    const double squared_distance = std::max(0.0, sum.error(point(v))) / std::max(sum.weight, 1e-300);
+    // Where the mesh's triangles are smaller than its mean, the cost is raised by the square
     // root of how much smaller, so that a base triangle there does not lie over many more fine
     // triangles than elsewhere: the rebuild moves a foot linearly with its base triangle, and where
     // the surface is strongly curved and bends inside a large one, small triangles fold. Raised
     // only, never lowered: lowering it where the triangles are large starved those parts of other
     // meshes (docs/performance.md, "A base denser where the scan is dense").
-    const double mean_area = static_cast<double>(sum.weight) / std::max(static_cast<double>(sum.planes), 1.0);
+    const double mean_area = sum.weight / std::max(sum.planes, 1.0);
     const double denser = mean_area > 0.0 && mean_area < mean_triangle_area_ ? std::sqrt(mean_triangle_area_ / mean_area) : 1.0;
     return {(squared_distance + kLengthWeight * (point(v) - point(u)).squaredNorm()) * denser, u, v, squared_distance};
   }
