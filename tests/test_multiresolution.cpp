@@ -12,6 +12,7 @@
 #include <numbers>
 #include <numeric>
 #include <set>
+#include <string>
 #include <vector>
 
 #include "hdeform/deformer.h"
@@ -712,6 +713,32 @@ TEST(BaseMesh, TheBoundaryStays) {
   square.triangles << 0, 1, 2, 0, 2, 3;
   const BaseMesh base = simplify_to_base(square, 3);
   EXPECT_EQ(base.mesh.vertex_count(), 4) << "the boundary stays";
+}
+
+TEST(Multiresolution, SaysWhenTheBaseKeepsMoreVerticesThanAskedFor) {
+  // A tube's two boundary loops (80 vertices) stay, so a base of 20 cannot be had: the user is
+  // told what the base has instead. A size the collapses reach says nothing.
+  const Mesh tube = torus(40, 40, true);
+  EditConstraints constraints;
+  constraints.fixed.resize(40);
+  std::iota(constraints.fixed.begin(), constraints.fixed.end(), 0);
+  constraints.handles.assign(1, std::vector<int>(40));
+  std::iota(constraints.handles[0].begin(), constraints.handles[0].end(), static_cast<int>(tube.vertex_count()) - 40);
+  auto base_warnings = [&](Eigen::Index asked) {
+    const Deformer deformer(tube, constraints, multiresolution(asked));
+    std::vector<std::string> lines;
+    for (const auto& line : deformer.warnings()) {
+      if (line.find("were asked for") != std::string::npos) lines.push_back(line);
+    }
+    return std::pair(deformer.solved_mesh().vertex_count(), lines);
+  };
+  const auto [small_base, small_warnings] = base_warnings(20);
+  EXPECT_GE(small_base, 80);
+  ASSERT_EQ(small_warnings.size(), 1u);
+  EXPECT_NE(small_warnings[0].find("has " + std::to_string(small_base) + " vertices where 20 were asked for"), std::string::npos) << small_warnings[0];
+  const auto [reached_base, reached_warnings] = base_warnings(tube.vertex_count() / 4);
+  EXPECT_LE(reached_base, tube.vertex_count() / 4 + tube.vertex_count() / 40);
+  EXPECT_TRUE(reached_warnings.empty()) << reached_warnings[0];
 }
 
 }  // namespace

@@ -110,7 +110,8 @@ struct MeshOperators {
     BaseMesh base;
     DetailEncoding encoding;
     std::shared_ptr<const MeshOperators> base_operators;
-    double ms = 0.0;  ///< simplification and encoding
+    Eigen::Index requested_vertices = 0;  ///< the base's size asked for (the base may keep more)
+    double ms = 0.0;                      ///< simplification and encoding
   };
   std::shared_ptr<const Multiresolution> multiresolution;
   /// Why Automatic stayed exact on a mesh of multiresolution's size (the base lost the topology).

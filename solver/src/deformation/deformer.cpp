@@ -136,6 +136,7 @@ std::shared_ptr<const MeshOperators> MeshOperators::of(const Mesh& mesh, Resolut
     try {
       report("building a base mesh of about " + std::to_string(base_vertices) + " vertices (multiresolution)");
       auto multiresolution = std::make_shared<Multiresolution>();
+      multiresolution->requested_vertices = base_vertices;
       // The fine mesh's own weights and inspection (its partition needs them) do not need the
       // base: they fill the collapses' serial stretches.
       tbb::parallel_invoke([&] { multiresolution->base = simplify_to_base(mesh, base_vertices); },
@@ -384,6 +385,16 @@ std::vector<std::string> Deformer::warnings() const {
   lines.insert(lines.end(), partition_.warnings.begin(), partition_.warnings.end());
   lines.insert(lines.end(), handle_warnings_.begin(), handle_warnings_.end());
   if (!operators_->exact_because.empty()) lines.push_back(operators_->exact_because);
+  if (const auto& multiresolution = operators_->multiresolution) {
+    // The collapses stop short of the size asked for where none is allowed any more: a small base
+    // asked of a mesh with a long boundary keeps every boundary vertex.
+    const Eigen::Index kept = multiresolution->base.mesh.vertex_count(), asked = multiresolution->requested_vertices;
+    if (kept > asked + asked / 10) {
+      lines.push_back("the base mesh has " + std::to_string(kept) + " vertices where " + std::to_string(asked) +
+                      " were asked for: no more collapses were allowed (boundary vertices stay, and a collapse may not change the "
+                      "topology, fold a triangle or leave a sliver)");
+    }
+  }
   if ((base_ || system_) && !system().factor().precision_note().empty()) lines.push_back(system().factor().precision_note());
   return lines;
 }
