@@ -13,6 +13,8 @@
 #include <numeric>
 #include <set>
 #include <string>
+#include <string_view>
+#include <thread>
 #include <vector>
 
 #include "hdeform/deformer.h"
@@ -224,6 +226,66 @@ TEST(BaseMesh, TheSameBaseWhateverTheThreads) {
   EXPECT_EQ(all.mesh.triangles, one.mesh.triangles);
   EXPECT_TRUE(mesh_topology(all.mesh).same_as(mesh_topology(mesh)));
   EXPECT_LE(all.mesh.vertex_count(), target + target / 20);
+}
+
+TEST(BaseMesh, ReportsItsProgressOnTheCallingThreadAndBuildsTheSameBase) {
+  const Mesh mesh = torus(400, 170);
+  const auto target = mesh.vertex_count() / 10;
+  const auto caller = std::this_thread::get_id();
+  std::vector<double> shares;
+  bool elsewhere = false;
+  const BaseMesh reported = simplify_to_base(mesh, target, [&](double share) {
+    elsewhere = elsewhere || std::this_thread::get_id() != caller;
+    shares.push_back(share);
+  });
+  EXPECT_FALSE(elsewhere) << "progress comes on the thread that asked for the base";
+  ASSERT_GE(shares.size(), 3u) << "one call a pass";
+  EXPECT_TRUE(std::is_sorted(shares.begin(), shares.end()));
+  EXPECT_GT(shares.front(), 0.0);
+  EXPECT_LE(shares.back(), 1.0);
+  // The base reaches the target within 5% (the test above), so nearly every collapse was done.
+  const double done = static_cast<double>(mesh.vertex_count() - reported.mesh.vertex_count()) / static_cast<double>(mesh.vertex_count() - target);
+  EXPECT_NEAR(shares.back(), std::min(done, 1.0), 1e-12);
+  const BaseMesh quiet = simplify_to_base(mesh, target);
+  EXPECT_EQ(reported.fine_vertex, quiet.fine_vertex);
+  EXPECT_EQ(reported.mesh.triangles, quiet.mesh.triangles);
+}
+
+TEST(Multiresolution, TheSetUpReportsTheCollapsesInTenthsOnTheConstructingThread) {
+  const Mesh mesh = torus(400, 170);
+  EditConstraints constraints;
+  constraints.fixed.resize(170);
+  std::iota(constraints.fixed.begin(), constraints.fixed.end(), 0);
+  constraints.handles.assign(1, std::vector<int>(170));
+  std::iota(constraints.handles[0].begin(), constraints.handles[0].end(), 200 * 170);
+  const auto caller = std::this_thread::get_id();
+  std::vector<std::string> stages;
+  bool elsewhere = false;
+  const Deformer deformer(mesh, constraints, multiresolution(mesh.vertex_count() / 10), [&](std::string_view stage) {
+    elsewhere = elsewhere || std::this_thread::get_id() != caller;
+    stages.emplace_back(stage);
+  });
+  EXPECT_FALSE(elsewhere);
+  const std::string building = "building a base mesh of about " + std::to_string(mesh.vertex_count() / 10) + " vertices (multiresolution)";
+  ASSERT_FALSE(stages.empty());
+  EXPECT_EQ(stages.front(), building);
+  std::vector<int> percents;
+  std::size_t last_share = 0;
+  for (std::size_t i = 1; i < stages.size(); ++i) {
+    if (stages[i].rfind(building + ": ", 0) != 0) continue;
+    percents.push_back(std::stoi(stages[i].substr(building.size() + 2)));
+    last_share = i;
+  }
+  ASSERT_GE(percents.size(), 2u) << "the collapses' progress, in tenths";
+  EXPECT_TRUE(std::is_sorted(percents.begin(), percents.end()));
+  EXPECT_EQ(std::adjacent_find(percents.begin(), percents.end()), percents.end()) << "each tenth once";
+  for (const int percent : percents) {
+    EXPECT_EQ(percent % 10, 0);
+    EXPECT_GT(percent, 0);
+    EXPECT_LT(percent, 100);
+  }
+  ASSERT_LT(last_share + 1, stages.size());
+  EXPECT_EQ(stages[last_share + 1].rfind("encoding the detail", 0), 0u) << stages[last_share + 1];
 }
 
 TEST(BaseMesh, AsLargeAsTheMeshIsTheMeshItself) {

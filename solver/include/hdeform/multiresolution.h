@@ -11,6 +11,7 @@
 #include <Eigen/Core>
 #include <algorithm>
 #include <array>
+#include <functional>
 #include <memory>
 #include <span>
 #include <string>
@@ -55,8 +56,11 @@ struct BaseMesh {
 /// A base of about `target_vertices` vertices by quadric-error halfedge collapses that keep the
 /// topology (the link condition; boundary vertices stay), checked against the fine mesh's after.
 /// Fewer collapses where no more are allowed. Throws SolveError if the topology changed anyway.
-/// A target at or above the fine mesh's size gives the fine mesh itself.
-BaseMesh simplify_to_base(const Mesh& fine, Eigen::Index target_vertices);
+/// A target at or above the fine mesh's size gives the fine mesh itself. `collapsed_share`, if
+/// given, is called on the calling thread after each pass of collapses with the share of the
+/// collapses to the target done so far, 0 to 1 (progress: at 13 million triangles the collapses
+/// take about fifteen seconds).
+BaseMesh simplify_to_base(const Mesh& fine, Eigen::Index target_vertices, const std::function<void(double)>& collapsed_share = {});
 
 /// Each fine vertex once against the base at rest: its foot point on a base triangle (that
 /// triangle and barycentric coordinates) and the detail vector from the foot to the vertex in the

@@ -5,6 +5,7 @@
 #include <tbb/task_arena.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_invoke.h>
+#include <tbb/task_group.h>
 
 #include <algorithm>
 #include <chrono>
@@ -134,17 +135,33 @@ std::shared_ptr<const MeshOperators> MeshOperators::of(const Mesh& mesh, Resolut
   auto operators = std::make_shared<MeshOperators>();
   if (resolution_for(mesh.vertex_count(), resolution) == Resolution::Multiresolution) {
     try {
-      report("building a base mesh of about " + std::to_string(base_vertices) + " vertices (multiresolution)");
+      const std::string building = "building a base mesh of about " + std::to_string(base_vertices) + " vertices (multiresolution)";
+      report(building);
       auto multiresolution = std::make_shared<Multiresolution>();
       multiresolution->requested_vertices = base_vertices;
       // The fine mesh's own weights and inspection (its partition needs them) do not need the
-      // base: they fill the collapses' serial stretches.
-      tbb::parallel_invoke([&] { multiresolution->base = simplify_to_base(mesh, base_vertices); },
-                           [&] {
-                             const trace::Scope traced("cotangent weights and mesh inspection", "set-up");
-                             operators->weights = cotangent_weights(mesh);
-                             operators->inspection = inspect_mesh(mesh, operators->weights);
-                           });
+      // base: they fill the collapses' serial stretches. The collapses stay on this thread, which
+      // reports their progress in tenths.
+      tbb::task_group beside;
+      beside.run([&] {
+        const trace::Scope traced("cotangent weights and mesh inspection", "set-up");
+        operators->weights = cotangent_weights(mesh);
+        operators->inspection = inspect_mesh(mesh, operators->weights);
+      });
+      int tenths_reported = 0;
+      const auto collapsed_share = [&](double share) {
+        const int tenths = static_cast<int>(share * 10.0);
+        if (tenths <= tenths_reported || tenths >= 10) return;
+        tenths_reported = tenths;
+        report(building + ": " + std::to_string(tenths * 10) + "%");
+      };
+      try {
+        multiresolution->base = simplify_to_base(mesh, base_vertices, progress ? collapsed_share : std::function<void(double)>{});
+      } catch (...) {
+        beside.wait();
+        throw;
+      }
+      beside.wait();
       report("encoding the detail of " + std::to_string(mesh.vertex_count()) + " vertices on the base of " +
              std::to_string(multiresolution->base.mesh.vertex_count()) + ", and the base's cotangent Laplacian");
       // Likewise the encoding and the base's operators (its elimination order runs on one thread).

@@ -1,6 +1,7 @@
 // The base mesh of multiresolution editing: the fine mesh simplified by edge collapses that keep
 // its topology, and the topology each is checked against.
-#include <tbb/parallel_invoke.h>
+#include <tbb/task_arena.h>
+#include <tbb/task_group.h>
 
 #include <algorithm>
 #include <numeric>
@@ -46,7 +47,7 @@ MeshTopology mesh_topology(const Mesh& mesh) {
   return topology;
 }
 
-BaseMesh simplify_to_base(const Mesh& fine, Eigen::Index target_vertices) {
+BaseMesh simplify_to_base(const Mesh& fine, Eigen::Index target_vertices, const std::function<void(double)>& collapsed_share) {
   validate_mesh(fine, "fine mesh");
   std::vector<char> referenced(static_cast<std::size_t>(fine.vertex_count()), 0);
   for (const int v : fine.triangles.reshaped()) referenced[static_cast<std::size_t>(v)] = 1;
@@ -59,10 +60,20 @@ BaseMesh simplify_to_base(const Mesh& fine, Eigen::Index target_vertices) {
   }
 
   const trace::Scope traced("base mesh (edge collapses)", "set-up");
-  // The fine mesh's topology, for the check at the end, beside the collapses.
+  // The fine mesh's topology, for the check at the end, beside the collapses. The collapses stay
+  // on this thread, which reports their progress; isolated, so that it does not take up the
+  // topology's task while a pass waits.
   MeshTopology fine_topology;
+  tbb::task_group beside;
+  beside.run([&] { fine_topology = mesh_topology(fine); });
   detail::CollapsedMesh collapsed;
-  tbb::parallel_invoke([&] { fine_topology = mesh_topology(fine); }, [&] { collapsed = detail::collapse_edges(fine, target_vertices); });
+  try {
+    tbb::this_task_arena::isolate([&] { collapsed = detail::collapse_edges(fine, target_vertices, collapsed_share); });
+  } catch (...) {
+    beside.wait();
+    throw;
+  }
+  beside.wait();
   BaseMesh base;
   base.simplification_error = collapsed.largest_error / std::max(bounding_box_diagonal(fine.positions), 1e-300);
   std::vector<int> base_of_fine(static_cast<std::size_t>(fine.vertex_count()), -1);

@@ -127,7 +127,8 @@ class Collapser {
   // parallel, again only where a collapse changed what it costs), and the pass takes the cheapest
   // of them, up to half the vertices, unless an earlier collapse of the pass changed their cost;
   // a refused one gives way to its vertex's cheapest allowed collapse when that is as cheap.
-  void run(Eigen::Index target) {
+  void run(Eigen::Index target, const std::function<void(double)>& collapsed_share) {
+    const Eigen::Index to_collapse = alive_vertices_ - target;
     std::vector<Candidate> candidates;
     stale_.assign(around_.size(), 0);
     dirty_.assign(around_.size(), 1);
@@ -188,6 +189,9 @@ class Collapser {
       alive_triangles_ -= 2 * static_cast<std::size_t>(outcome.collapsed);
       largest_error_ = std::max(largest_error_, outcome.largest_error);
       if (outcome.collapsed == 0) break;
+      if (collapsed_share && to_collapse > 0) {
+        collapsed_share(std::min(1.0, static_cast<double>(to_collapse - (alive_vertices_ - target)) / static_cast<double>(to_collapse)));
+      }
     }
   }
 
@@ -516,7 +520,7 @@ std::vector<int> spatial_order(const Eigen::MatrixXd& positions) {
 
 }  // namespace
 
-CollapsedMesh collapse_edges(const Mesh& mesh, Eigen::Index target_vertices) {
+CollapsedMesh collapse_edges(const Mesh& mesh, Eigen::Index target_vertices, const std::function<void(double)>& collapsed_share) {
   const std::vector<int> order = spatial_order(mesh.positions);  // new → old
   std::vector<int> rank(order.size());
   for (std::size_t i = 0; i < order.size(); ++i) rank[static_cast<std::size_t>(order[i])] = static_cast<int>(i);
@@ -543,7 +547,7 @@ CollapsedMesh collapse_edges(const Mesh& mesh, Eigen::Index target_vertices) {
     }
   });
   Collapser collapser(ordered);
-  collapser.run(target_vertices);
+  collapser.run(target_vertices, collapsed_share);
   CollapsedMesh collapsed = collapser.result();
   // Back to the input's numbering.
   std::vector<char> kept(collapsed.kept.size(), 0);

@@ -13,6 +13,7 @@
 //  - no triangle around u turns by more than about 78°, becomes degenerate, or becomes a sliver.
 // Deterministic: ties go by vertex index.
 #include <Eigen/Core>
+#include <functional>
 #include <vector>
 
 #include "hdeform/mesh.h"
@@ -27,6 +28,8 @@ struct CollapsedMesh {
 };
 
 // Collapses until `target_vertices` of the referenced vertices remain, or no collapse is allowed.
-CollapsedMesh collapse_edges(const Mesh& mesh, Eigen::Index target_vertices);
+// `collapsed_share`, if given, is called on the calling thread after each pass of collapses with
+// the share of the collapses to the target done so far (0 to 1).
+CollapsedMesh collapse_edges(const Mesh& mesh, Eigen::Index target_vertices, const std::function<void(double)>& collapsed_share = {});
 
 }  // namespace hdeform::detail
