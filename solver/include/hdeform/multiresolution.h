@@ -59,7 +59,7 @@ struct BaseMesh {
 /// A target at or above the fine mesh's size gives the fine mesh itself. `collapsed_share`, if
 /// given, is called on the calling thread after each pass of collapses with the share of the
 /// collapses to the target done so far, 0 to 1 (progress: at 13 million triangles the collapses
-/// take about fifteen seconds).
+/// take about eighteen seconds).
 BaseMesh simplify_to_base(const Mesh& fine, Eigen::Index target_vertices, const std::function<void(double)>& collapsed_share = {});
 
 /// Each fine vertex once against the base at rest: its foot point on a base triangle (that
