@@ -98,6 +98,25 @@ TEST_F(Cli, MultiresolutionOnTheCommandLineAndInASession) {
   const auto report = nlohmann::json::parse(multi.out);
   EXPECT_EQ(report["resolution"], "multiresolution");
   EXPECT_LE(report["solved_vertices"].get<Eigen::Index>(), 630);
+  for (const auto& warning : report["warnings"]) EXPECT_FALSE(contains(warning.get<std::string>(), "asked for")) << warning;
+  // A base smaller than the collapses can reach: the report and stderr say what it has instead.
+  const auto tiny = run(dir, "edit --shape cactus --multiresolution --base-vertices 4 --out " + path("tiny.obj"));
+  ASSERT_EQ(tiny.exit_code, 0) << tiny.err;
+  const auto tiny_report = nlohmann::json::parse(tiny.out);
+  const auto kept = tiny_report["solved_vertices"].get<Eigen::Index>();
+  ASSERT_GT(kept, 4);
+  const std::string expected = "the base mesh has " + std::to_string(kept) + " vertices where 4 were asked for";
+  ASSERT_EQ(tiny_report["warnings"].size(), 1u) << tiny_report["warnings"];
+  EXPECT_TRUE(contains(tiny_report["warnings"][0].get<std::string>(), expected)) << tiny_report["warnings"];
+  EXPECT_TRUE(contains(tiny.err, "warning: " + expected)) << tiny.err;
+  // bench reports the set-up's warnings too; its second handle (five vertices) finds no base
+  // vertex of its own on so small a base, and it says so rather than that the handle is empty.
+  const auto bench = run(dir, "bench --shape cactus --resolution 12 --steps 3 --quiet --multiresolution --base-vertices 30");
+  ASSERT_EQ(bench.exit_code, 0) << bench.err;
+  EXPECT_TRUE(nlohmann::json::parse(bench.out)["warnings"].empty());
+  const auto tiny_bench = run(dir, "bench --shape cactus --resolution 12 --steps 3 --quiet --multiresolution --base-vertices 4");
+  EXPECT_EQ(tiny_bench.exit_code, 1);
+  EXPECT_TRUE(contains(tiny_bench.err, "handle 2 (5 vertices) reaches no vertex of the base mesh")) << tiny_bench.err;
   const auto exact = run(dir, "edit --shape cactus --quiet --out " + path("exact.obj"));
   ASSERT_EQ(exact.exit_code, 0) << exact.err;
   EXPECT_EQ(nlohmann::json::parse(exact.out)["resolution"], "exact");  // a small mesh, by default

@@ -700,6 +700,28 @@ TEST(Multiresolution, AHandleSmallerThanABaseTriangleReachesTheBase) {
   EXPECT_TRUE((positions.row(lone).array() == pull.apply(relief.mesh.positions.row(lone).transpose()).transpose().array()).all());
 }
 
+TEST(Multiresolution, AHandleThatReachesNoBaseVertexOfItsOwnIsRefusedByName) {
+  // Every other vertex fixed: each base vertex under the lone handle vertex is already fixed.
+  const Relief relief = bar_with_relief();
+  const auto operators = MeshOperators::of(relief.mesh, Resolution::Multiresolution, relief.mesh.vertex_count() / 20);
+  int lone = -1;
+  for (int v = 0; v < relief.mesh.vertex_count() && lone < 0; ++v) {
+    if (operators->multiresolution->encoding.base_vertex(v) < 0) lone = v;
+  }
+  ASSERT_GE(lone, 0);
+  EditConstraints constraints;
+  for (int v = 0; v < relief.mesh.vertex_count(); ++v) {
+    if (v != lone) constraints.fixed.push_back(v);
+  }
+  constraints.handles = {{lone}};
+  try {
+    const Deformer deformer(relief.mesh, constraints, operators, multiresolution(relief.mesh.vertex_count() / 20));
+    ADD_FAILURE() << "a handle without a base vertex was accepted";
+  } catch (const InputError& error) {
+    EXPECT_NE(std::string(error.what()).find("handle 1 (1 vertex) reaches no vertex of the base mesh"), std::string::npos) << error.what();
+  }
+}
+
 TEST(Multiresolution, OperatorsOfTheOtherResolutionAreBuiltAgain) {
   const Shape shape = make_shape(ShapeKind::Cactus, 16);
   const auto exact = MeshOperators::of(shape.mesh, Resolution::Exact);

@@ -197,6 +197,8 @@ class BenchCommand final : public BatchCommand {
       report["precision"] = to_string(opened.system().factor().precision());
       report["solved_vertices"] = opened.solved_mesh().vertex_count();
       report["base_ms"] = opened.timings().base_ms;
+      report["warnings"] = opened.warnings();
+      progress.warn(opened.warnings());
       // A base mesh is built once per mesh: every deformer below shares it (an exact one builds
       // its own operators, whose time each reports).
       if (opened.resolution() == Resolution::Multiresolution) shared_operators_ = opened.operators();

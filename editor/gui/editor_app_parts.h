@@ -277,6 +277,8 @@ class EditorApp {
   void draw_panel();
   void draw_footer();
   std::vector<std::string> shown_notes() const;
+  // Why the solver could not be set up for this selection ("" when it could), in the footer.
+  std::string solver_failure() const;
   void draw_controls();
   void draw_pose_editor();
 

@@ -16,7 +16,8 @@ void EditorApp::draw_panel() {
   const int figure_lines = editing && document_ ? 5 : 0;
   float notes = 0.0f;
   for (const auto& note : shown_notes()) notes += wrapped_height(note) + style.ItemSpacing.y;
-  const float footer = editing ? style.ItemSpacing.y * 4 + style.WindowPadding.y + wrapped_height(status_) + wrapped_height(error_message_) + notes +
+  const float footer = editing ? style.ItemSpacing.y * 5 + style.WindowPadding.y + wrapped_height(status_) + wrapped_height(error_message_) +
+                                     wrapped_height(solver_failure()) + notes +
                                      static_cast<float>(figure_lines) * ImGui::GetTextLineHeightWithSpacing()
                                : 0.0f;
   ImGui::BeginChild("controls", ImVec2(0, -footer));
@@ -39,6 +40,7 @@ void EditorApp::draw_footer() {
   }
   ImGui::TextWrapped("%s", status_.c_str());
   for (const auto& note : shown_notes()) wrapped_in_color(ImVec4(1.0f, 0.8f, 0.3f, 1.0f), note);
+  if (const std::string failure = solver_failure(); !failure.empty()) wrapped_in_color(ImVec4(1, 0.45f, 0.45f, 1), failure);
   if (!error_message_.empty()) wrapped_in_color(ImVec4(1, 0.45f, 0.45f, 1), error_message_);
 }
 
@@ -99,7 +101,8 @@ void EditorApp::draw_controls() {
     ImGui::ColorButton(("##handle" + std::to_string(h)).c_str(), ImVec4(color.x(), color.y(), color.z(), 1.0f), ImGuiColorEditFlags_NoTooltip,
                        ImVec2(14, 14));
     ImGui::SameLine();
-    const std::string label = "Handle " + std::to_string(h + 1) + " (" + std::to_string(document_->handle_size(h)) + " vertices)";
+    const std::size_t size = document_->handle_size(h);
+    const std::string label = "Handle " + std::to_string(h + 1) + " (" + std::to_string(size) + (size == 1 ? " vertex)" : " vertices)");
     if (ImGui::Selectable(label.c_str(), document_->active_handle() == h)) document_->set_active_handle(h);
   }
   if (ImGui::Button("New handle (N)")) {
@@ -182,7 +185,7 @@ void EditorApp::draw_controls() {
       ImGui::TextWrapped("%s...", document_->solver_message().c_str());
       if (document_->drags_previous_selection()) ImGui::TextDisabled("Dragging with the previous selection until then.");
       break;
-    case Document::SolverState::Failed: wrapped_in_color(ImVec4(1, 0.45f, 0.45f, 1), document_->solver_message()); break;
+    case Document::SolverState::Failed: break;  // in the footer (solver_failure), always in view
     case Document::SolverState::Ready: break;
   }
 
@@ -373,6 +376,11 @@ std::vector<std::string> EditorApp::shown_notes() const {
   if (!document_ || document_->solver_state() != Document::SolverState::Ready) return notes;
   for (const auto& warning : solver_warnings_) notes.push_back("Note: " + warning);
   return notes;
+}
+
+std::string EditorApp::solver_failure() const {
+  if (!document_ || document_->solver_state() != Document::SolverState::Failed) return {};
+  return document_->solver_message();
 }
 
 }  // namespace hdeform::cli::gui

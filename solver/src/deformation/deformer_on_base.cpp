@@ -4,7 +4,10 @@
 // exact update's "targets" stage runs too).
 #include <tbb/parallel_for.h>
 
+#include <string>
+
 #include "hdeform/deformer.h"
+#include "hdeform/errors.h"
 #include "hdeform/trace.h"
 
 namespace hdeform {
@@ -13,8 +16,19 @@ void Deformer::set_up_on_base(const ProgressCallback& progress) {
   const auto& multiresolution = *operators_->multiresolution;
   DeformerOptions base_options = options_;
   base_options.resolution = Resolution::Exact;
-  base_ = std::make_unique<Deformer>(multiresolution.base.mesh, base_constraints(constraints_, multiresolution.encoding),
-                                     multiresolution.base_operators, base_options, progress);
+  EditConstraints on_base = base_constraints(constraints_, multiresolution.encoding);
+  // A handle that reaches no base vertex of its own: every base vertex under it already belongs
+  // to the fixed set or an earlier handle (a small handle beside another set on a coarse base).
+  for (std::size_t h = 0; h < on_base.handles.size(); ++h) {
+    if (on_base.handles[h].empty() && !constraints_.handles[h].empty()) {
+      const std::size_t painted = constraints_.handles[h].size();
+      throw InputError("handle " + std::to_string(h + 1) + " (" + std::to_string(painted) + (painted == 1 ? " vertex" : " vertices") +
+                       ") reaches no vertex of the base mesh (" + std::to_string(multiresolution.base.mesh.vertex_count()) +
+                       " vertices) that the fixed vertices or another handle do not hold already: paint it larger, or solve on "
+                       "a larger base or exactly");
+    }
+  }
+  base_ = std::make_unique<Deformer>(multiresolution.base.mesh, std::move(on_base), multiresolution.base_operators, base_options, progress);
   // The fine field: the base's, carried over the feet; exact at the fine constrained vertices.
   field_ = multiresolution.encoding.interpolate(base_->field());
   for (const int v : partition_.constrained_vertices) {
