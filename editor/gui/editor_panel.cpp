@@ -16,8 +16,8 @@ void EditorApp::draw_panel() {
   const int figure_lines = editing && document_ ? 5 : 0;
   float notes = 0.0f;
   for (const auto& note : shown_notes()) notes += wrapped_height(note) + style.ItemSpacing.y;
-  const float footer = editing ? style.ItemSpacing.y * 5 + style.WindowPadding.y + wrapped_height(status_) + wrapped_height(error_message_) +
-                                     wrapped_height(solver_failure()) + notes +
+  if (const std::string failure = solver_failure(); !failure.empty()) notes += wrapped_height(failure) + style.ItemSpacing.y;
+  const float footer = editing ? style.ItemSpacing.y * 4 + style.WindowPadding.y + wrapped_height(status_) + wrapped_height(error_message_) + notes +
                                      static_cast<float>(figure_lines) * ImGui::GetTextLineHeightWithSpacing()
                                : 0.0f;
   ImGui::BeginChild("controls", ImVec2(0, -footer));
