@@ -178,6 +178,54 @@ TEST(BaseMesh, KeepsMoreVerticesWhereTheMeshIsDenser) {
   }
 }
 
+TEST(BaseMesh, ScanDebrisKeepsItsVerticesWithoutTakingTheSurfacesShare) {
+  // A scan's debris: islands of one triangle (every vertex on their boundary) and tetrahedra
+  // (closed, nothing to collapse), 800 vertices beside a torus of 1,800. The collapses cannot touch
+  // them; had they counted against the 600 asked for, the torus would have been left about 416
+  // fewer vertices than its share.
+  const Mesh surface = torus(60, 30);
+  Mesh mesh;
+  const int islands = 200, tetrahedra = 50;
+  const Eigen::Index n = surface.vertex_count();
+  mesh.positions.resize(n + 3 * islands + 4 * tetrahedra, 3);
+  mesh.triangles.resize(surface.triangle_count() + islands + 4 * tetrahedra, 3);
+  mesh.positions.topRows(n) = surface.positions;
+  mesh.triangles.topRows(surface.triangle_count()) = surface.triangles;
+  Eigen::Index vertex = n, triangle = surface.triangle_count();
+  for (int i = 0; i < islands; ++i, vertex += 3) {
+    const Eigen::RowVector3d at(3.0 + 0.1 * (i % 20), 0.1 * (i / 20), 0.0);
+    mesh.positions.row(vertex) = at;
+    mesh.positions.row(vertex + 1) = at + Eigen::RowVector3d(0.05, 0.0, 0.0);
+    mesh.positions.row(vertex + 2) = at + Eigen::RowVector3d(0.0, 0.05, 0.01);
+    mesh.triangles.row(triangle++) << static_cast<int>(vertex), static_cast<int>(vertex + 1), static_cast<int>(vertex + 2);
+  }
+  for (int i = 0; i < tetrahedra; ++i, vertex += 4) {
+    const Eigen::RowVector3d at(-3.0 - 0.1 * (i % 10), 0.1 * (i / 10), 0.0);
+    mesh.positions.row(vertex) = at;
+    mesh.positions.row(vertex + 1) = at + Eigen::RowVector3d(0.05, 0.0, 0.0);
+    mesh.positions.row(vertex + 2) = at + Eigen::RowVector3d(0.0, 0.05, 0.0);
+    mesh.positions.row(vertex + 3) = at + Eigen::RowVector3d(0.0, 0.0, 0.05);
+    const int a = static_cast<int>(vertex), b = a + 1, c = a + 2, d = a + 3;
+    mesh.triangles.row(triangle++) << a, c, b;
+    mesh.triangles.row(triangle++) << a, b, d;
+    mesh.triangles.row(triangle++) << b, c, d;
+    mesh.triangles.row(triangle++) << a, d, c;
+  }
+  ASSERT_EQ(mesh_topology(mesh).components, 1 + islands + tetrahedra);
+
+  const Eigen::Index asked = 600;
+  const BaseMesh base = simplify_to_base(mesh, asked);
+  EXPECT_TRUE(mesh_topology(base.mesh).same_as(mesh_topology(mesh))) << mesh_topology(base.mesh).describe();
+  const auto on_surface = std::count_if(base.fine_vertex.begin(), base.fine_vertex.end(), [&](int v) { return v < n; });
+  const auto debris = static_cast<Eigen::Index>(base.fine_vertex.size()) - on_surface;
+  EXPECT_EQ(debris, mesh.vertex_count() - n) << "debris cannot be simplified and is kept whole";
+  // The torus's share of the vertices asked for, in proportion to its vertices: 415.
+  const double share = static_cast<double>(asked * n) / static_cast<double>(mesh.vertex_count());
+  EXPECT_NEAR(static_cast<double>(on_surface), share, 0.05 * share);
+  // Alone, the torus reaches what is asked of it.
+  EXPECT_NEAR(static_cast<double>(simplify_to_base(surface, static_cast<Eigen::Index>(share)).mesh.vertex_count()), share, 0.05 * share);
+}
+
 TEST(BaseMesh, TheBoundaryStays) {
   // Two triangles: every vertex is on the boundary, so nothing collapses.
   Mesh square;

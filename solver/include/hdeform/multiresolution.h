@@ -55,7 +55,9 @@ struct BaseMesh {
 
 /// A base of about `target_vertices` vertices by quadric-error halfedge collapses that keep the
 /// topology (the link condition; boundary vertices stay), checked against the fine mesh's after.
-/// Fewer collapses where no more are allowed. Throws SolveError if the topology changed anyway.
+/// Fewer collapses where no more are allowed. A connected component that must keep more than its
+/// share of the target (in proportion to its vertices), such as a scan's islands of a few
+/// triangles, keeps them on top of the target rather than at the other components' cost. Throws SolveError if the topology changed anyway.
 /// A target at or above the fine mesh's size gives the fine mesh itself. `collapsed_share`, if
 /// given, is called on the calling thread after each pass of collapses with the share of the
 /// collapses to the target done so far, 0 to 1 (progress: at 13 million triangles the collapses

@@ -408,8 +408,8 @@ std::vector<std::string> Deformer::warnings() const {
     const Eigen::Index kept = multiresolution->base.mesh.vertex_count(), asked = multiresolution->requested_vertices;
     if (kept > asked + asked / 10) {
       lines.push_back("the base mesh has " + std::to_string(kept) + " vertices where " + std::to_string(asked) +
-                      " were asked for: no more collapses were allowed (boundary vertices stay, and a collapse may not change the "
-                      "topology, fold a triangle or leave a sliver)");
+                      " were asked for: no more collapses were allowed (boundary vertices and parts of a few triangles stay, and a "
+                      "collapse may not change the topology, fold a triangle or leave a sliver)");
     }
   }
   if ((base_ || system_) && !system().factor().precision_note().empty()) lines.push_back(system().factor().precision_note());

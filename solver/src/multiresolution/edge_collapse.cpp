@@ -13,6 +13,8 @@
 #include <utility>
 #include <tuple>
 
+#include "mesh/disjoint_sets.h"
+
 namespace hdeform::detail {
 namespace {
 
@@ -121,6 +123,37 @@ class Collapser {
       FanScratch scratch;
       for (std::size_t v = range.begin(); v != range.end(); ++v) locked_[v] = !one_closed_fan(static_cast<int>(v), scratch);
     });
+  }
+
+  // What to collapse to for `requested` vertices. Each connected component's share of them is in
+  // proportion to its vertices, but no component goes below what the collapses must keep of it:
+  // its locked vertices (on a boundary or a non-manifold edge), or four (a tetrahedron) where it
+  // has none. Where a share falls short of that, the difference is added to the target rather than
+  // taken from the other components, so that a scan's debris (islands of a few triangles, which
+  // keep every vertex) does not take the base's vertices from the surface being edited.
+  Eigen::Index target_for(Eigen::Index requested) const {
+    const auto n = around_.size();
+    DisjointSets components(n);
+    for (const auto& corners : triangles_) {
+      components.unite(corners[0], corners[1]);
+      components.unite(corners[1], corners[2]);
+    }
+    // Per component, at its root: its vertices, and those locked.
+    std::vector<std::pair<int, int>> counts(n, {0, 0});
+    for (std::size_t v = 0; v < n; ++v) {
+      if (!referenced_[v]) continue;
+      auto& [vertices, locked] = counts[static_cast<std::size_t>(components.find(static_cast<int>(v)))];
+      ++vertices;
+      locked += locked_[v];
+    }
+    const double share_per_vertex = static_cast<double>(requested) / static_cast<double>(std::max<Eigen::Index>(alive_vertices_, 1));
+    double short_of_floors = 0.0;
+    for (const auto& [vertices, locked] : counts) {
+      if (vertices == 0) continue;
+      const double floor = std::min(vertices, std::max(locked, 4));
+      short_of_floors += std::max(0.0, floor - share_per_vertex * vertices);
+    }
+    return std::min(alive_vertices_, requested + static_cast<Eigen::Index>(std::llround(short_of_floors)));
   }
 
   // In passes, as meshoptimizer's simplifier does: each vertex's cheapest collapse is costed (in
@@ -547,7 +580,7 @@ CollapsedMesh collapse_edges(const Mesh& mesh, Eigen::Index target_vertices, con
     }
   });
   Collapser collapser(ordered);
-  collapser.run(target_vertices, collapsed_share);
+  collapser.run(collapser.target_for(target_vertices), collapsed_share);
   CollapsedMesh collapsed = collapser.result();
   // Back to the input's numbering.
   std::vector<char> kept(collapsed.kept.size(), 0);

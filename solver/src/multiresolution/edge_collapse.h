@@ -27,7 +27,8 @@ struct CollapsedMesh {
   double largest_error = 0.0;  // the largest collapse's root mean squared distance to its planes
 };
 
-// Collapses until `target_vertices` of the referenced vertices remain, or no collapse is allowed.
+// Collapses until `target_vertices` of the referenced vertices remain, or no collapse is allowed;
+// plus what components too small for their share of the target must keep (Collapser::target_for).
 // `collapsed_share`, if given, is called on the calling thread after each pass of collapses with
 // the share of the collapses to the target done so far (0 to 1).
 CollapsedMesh collapse_edges(const Mesh& mesh, Eigen::Index target_vertices, const std::function<void(double)>& collapsed_share = {});
