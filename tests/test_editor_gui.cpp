@@ -131,6 +131,24 @@ TEST_F(EditorGui, ATraceHoldsInputsFramesTheDeviceAndTheUpdates) {
   EXPECT_GT(test::named(events, "frame").size(), 20u);
 }
 
+TEST_F(EditorGui, ThePointerOverThePanelRedrawsThePanelAndNotTheScene) {
+  // On a CPU device a frame of a scan of millions of triangles takes seconds: the frames that only
+  // the panel needs (the pointer over its buttons) show the scene kept from the last one drawn.
+  Editor editor(editor_arguments("no"));
+  editor.wait_for("opened");
+  ASSERT_NO_FATAL_FAILURE(find_window());
+  std::this_thread::sleep_for(1s);  // the first pictures are drawn
+  for (int k = 0; k < 20; ++k) move_to({40.0f + 8.0f * static_cast<float>(k % 10), 150.0f + 15.0f * static_cast<float>(k)});
+  const auto before = editor.event_count();
+  press("ctrl+q");
+  const json exit_event = editor.wait_for("exit", 60s, before);
+  EXPECT_EQ(exit_event.value("validation_messages", -1), 0);
+  EXPECT_EQ(editor.wait_exit(), 0);
+  const int frames = exit_event.value("frames", 0), scene_frames = exit_event.value("scene_frames", 0);
+  EXPECT_GE(scene_frames, 1);
+  EXPECT_GE(frames - scene_frames, 15) << frames << " frames, " << scene_frames << " of them drew the scene";
+}
+
 TEST_F(EditorGui, AfterKillNineTheNextStartRestoresTheStateBeforeTheKill) {
   cli::Session before_kill;
   {

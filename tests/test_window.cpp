@@ -99,8 +99,14 @@ struct WindowDrawing {
       const VkExtent2D extent = target.extent();
       const auto camera = engine::Camera::three_quarter_front(bounds, engine::UpAxis::Z, float(extent.width) / float(extent.height));
       renderer.prepare(slot.index, camera, settings, extent);
+      // As the editor does: the scene drawn again only when it changed.
+      if (!target.scene_kept() || !renderer.prepared_as_before()) {
+        target.begin_scene(slot.commands);
+        renderer.record(slot.commands, slot.index, extent);
+        target.end_scene(slot.commands);
+        ++scene_passes;
+      }
       target.begin(slot.commands, image);
-      renderer.record(slot.commands, slot.index, extent);
       target.end(slot.commands, image, k == frames - 1);
       slots.submit(slot, slot.image_available, target.render_finished(image));
       target.present(image);
@@ -132,6 +138,7 @@ struct WindowDrawing {
   engine::GeometryExchange exchange;
   engine::Bounds bounds;
   engine::RenderSettings settings;
+  int scene_passes = 0;
 };
 
 TEST_F(Window, ShowsWhatTheOffscreenTargetShowsAndSurvivesResizeAndMinimise) {
@@ -139,14 +146,28 @@ TEST_F(Window, ShowsWhatTheOffscreenTargetShowsAndSurvivesResizeAndMinimise) {
   auto draw = [&](int frames) { return drawing.draw(frames); };
   auto& target = drawing.target;
 
+  // The scene is drawn once; the five frames after it show it as kept, and the last of them is
+  // what the offscreen target draws.
   ASSERT_TRUE(draw(6));
+  EXPECT_EQ(drawing.scene_passes, 1);
+  drawing.expect_the_offscreen_picture(*context);
+  // A change to what the scene shows draws it again, once.
+  drawing.settings.ground = false;
+  ASSERT_TRUE(draw(3));
+  EXPECT_EQ(drawing.scene_passes, 2);
+  drawing.settings.ground = true;
+  ASSERT_TRUE(draw(3));
+  EXPECT_EQ(drawing.scene_passes, 3);
   drawing.expect_the_offscreen_picture(*context);
 
+  // A new size needs a new scene.
   glfwSetWindowSize(window, 400, 300);
   for (int k = 0; k < 20 && framebuffer_size().width != 400; ++k) glfwWaitEventsTimeout(0.05);
   ASSERT_TRUE(draw(4));
+  EXPECT_EQ(drawing.scene_passes, 4);
   EXPECT_EQ(target.extent().width, 400u);
   EXPECT_EQ(target.read_last_image().height, 300u);
+  drawing.expect_the_offscreen_picture(*context);
 
   glfwIconifyWindow(window);
   for (int k = 0; k < 10; ++k) glfwWaitEventsTimeout(0.02);

@@ -514,6 +514,9 @@ class EditorApp {
   FrameStatistics statistics_;
   bool waited_idle_ = false;    // the loop waited for events before this frame
   std::uint64_t shown_tag_ = 0;  // the geometry the frame shows (the request it answers)
+  bool scene_shows_transfer_ = false;  // the scene the target keeps is the transfer views'
+  std::uint64_t frames_drawn_ = 0;
+  std::uint64_t scene_frames_ = 0;     // of those, the frames that drew the scene; the others showed it as kept
   Clock::time_point last_input_ = Clock::now();
   std::vector<Clock::time_point> unposted_events_;  // inputs whose solve is not posted yet
   bool latch_solves_ = false;

@@ -302,6 +302,7 @@ void MeshRenderer::set_mesh(const Eigen::MatrixXi& triangles, GeometryExchange& 
   ++attributes_version_;
   markers_cpu_.clear();
   ++markers_version_;
+  ++mesh_generation_;
 }
 
 Buffer MeshRenderer::index_buffer(const Eigen::MatrixXi& triangles) const {
@@ -318,6 +319,7 @@ void MeshRenderer::set_proxy(const Eigen::MatrixXi& triangles) {
   vkDeviceWaitIdle(context_.device());
   context_.destroy(proxy_indices_);
   proxy_index_count_ = 0;
+  ++mesh_generation_;
   if (triangles.rows() == 0) return;
   proxy_indices_ = index_buffer(triangles);
   proxy_index_count_ = static_cast<uint32_t>(triangles.size());
@@ -415,6 +417,29 @@ void MeshRenderer::prepare(uint32_t frame_index, const Camera& camera, const Ren
   for (std::size_t k = 0; k < class_colors().size(); ++k) store(u.class_colors[k], class_colors()[k], 1.0f);
   for (std::size_t k = 0; k < colormap_samples().size(); ++k) store(u.colormap[k], colormap_samples()[k], 1.0f);
   std::memcpy(frame.uniforms.mapped, &u, sizeof u);
+
+  // What record() will draw from this, byte for byte: the uniforms and what else it reads.
+  std::vector<unsigned char> key(sizeof u);
+  std::memcpy(key.data(), &u, sizeof u);
+  auto append = [&key](const auto& value) {
+    const auto* bytes = reinterpret_cast<const unsigned char*>(&value);
+    key.insert(key.end(), bytes, bytes + sizeof value);
+  };
+  append(frame.has_geometry);
+  append(frame.geometry_version);
+  append(prepared_proxy_);
+  append(attributes_version_);
+  append(markers_version_);
+  append(frame.marker_count);
+  append(mesh_generation_);
+  append(settings.wireframe);
+  append(settings.back_faces);
+  append(area.offset.x);
+  append(area.offset.y);
+  append(area.extent.width);
+  append(area.extent.height);
+  prepared_as_before_ = key == prepared_key_;
+  prepared_key_ = std::move(key);
 }
 
 void MeshRenderer::record(VkCommandBuffer commands, uint32_t frame_index, VkRect2D area) const {

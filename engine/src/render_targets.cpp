@@ -49,12 +49,13 @@ VkRenderPass create_scene_render_pass(const VulkanContext& context, const PassFo
   subpass.pColorAttachments = &color_reference;
   subpass.pDepthStencilAttachment = &depth_reference;
   subpass.pResolveAttachments = multisampled ? &resolve_reference : nullptr;
-  // Earlier use of the attachments (the previous frame, a presentation) finishes before we
-  // write; our writes finish before a copy or a presentation reads them.
+  // Earlier use of the attachments (the previous frame, a presentation, a copy out of the
+  // image) finishes before we write; our writes finish before a copy or a presentation reads them.
   std::array<VkSubpassDependency, 2> dependencies{};
   dependencies[0].srcSubpass = VK_SUBPASS_EXTERNAL;
   dependencies[0].dstSubpass = 0;
-  dependencies[0].srcStageMask = VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT | VK_PIPELINE_STAGE_LATE_FRAGMENT_TESTS_BIT;
+  dependencies[0].srcStageMask =
+      VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT | VK_PIPELINE_STAGE_LATE_FRAGMENT_TESTS_BIT | VK_PIPELINE_STAGE_TRANSFER_BIT;
   dependencies[0].dstStageMask = VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT | VK_PIPELINE_STAGE_EARLY_FRAGMENT_TESTS_BIT;
   dependencies[0].srcAccessMask = VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT | VK_ACCESS_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT;
   dependencies[0].dstAccessMask = VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT | VK_ACCESS_COLOR_ATTACHMENT_READ_BIT |

@@ -3,8 +3,10 @@
 #include "hdeform/trace.h"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cstring>
+#include <stdexcept>
 
 namespace hdeform::engine {
 namespace {
@@ -36,6 +38,50 @@ VkPresentModeKHR choose_present_mode(const VulkanContext& context, bool vsync) {
   return VK_PRESENT_MODE_FIFO_KHR;
 }
 
+// The user interface over the scene: the swapchain image, holding the scene copied into it, loaded
+// and drawn over, then presented (or copied for a screenshot first).
+VkRenderPass create_overlay_pass(const VulkanContext& context, VkFormat format) {
+  VkAttachmentDescription color{};
+  color.format = format;
+  color.samples = VK_SAMPLE_COUNT_1_BIT;
+  color.loadOp = VK_ATTACHMENT_LOAD_OP_LOAD;
+  color.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+  color.stencilLoadOp = VK_ATTACHMENT_LOAD_OP_DONT_CARE;
+  color.stencilStoreOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
+  color.initialLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
+  color.finalLayout = VK_IMAGE_LAYOUT_PRESENT_SRC_KHR;
+  const VkAttachmentReference reference{0, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL};
+  VkSubpassDescription subpass{};
+  subpass.pipelineBindPoint = VK_PIPELINE_BIND_POINT_GRAPHICS;
+  subpass.colorAttachmentCount = 1;
+  subpass.pColorAttachments = &reference;
+  // The copy of the scene finishes before the interface is drawn over it; the drawing finishes
+  // before a screenshot's copy or the presentation reads the image.
+  std::array<VkSubpassDependency, 2> dependencies{};
+  dependencies[0].srcSubpass = VK_SUBPASS_EXTERNAL;
+  dependencies[0].dstSubpass = 0;
+  dependencies[0].srcStageMask = VK_PIPELINE_STAGE_TRANSFER_BIT;
+  dependencies[0].dstStageMask = VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT;
+  dependencies[0].srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+  dependencies[0].dstAccessMask = VK_ACCESS_COLOR_ATTACHMENT_READ_BIT | VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT;
+  dependencies[1].srcSubpass = 0;
+  dependencies[1].dstSubpass = VK_SUBPASS_EXTERNAL;
+  dependencies[1].srcStageMask = VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT;
+  dependencies[1].dstStageMask = VK_PIPELINE_STAGE_TRANSFER_BIT | VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT;
+  dependencies[1].srcAccessMask = VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT;
+  dependencies[1].dstAccessMask = VK_ACCESS_TRANSFER_READ_BIT;
+  VkRenderPassCreateInfo info{VK_STRUCTURE_TYPE_RENDER_PASS_CREATE_INFO};
+  info.attachmentCount = 1;
+  info.pAttachments = &color;
+  info.subpassCount = 1;
+  info.pSubpasses = &subpass;
+  info.dependencyCount = static_cast<uint32_t>(dependencies.size());
+  info.pDependencies = dependencies.data();
+  VkRenderPass pass = VK_NULL_HANDLE;
+  check(vkCreateRenderPass(context.device(), &info, nullptr, &pass), "vkCreateRenderPass");
+  return pass;
+}
+
 }  // namespace
 
 SwapchainTarget::SwapchainTarget(const VulkanContext& context, std::function<VkExtent2D()> framebuffer_size, int samples, bool vsync,
@@ -47,7 +93,8 @@ SwapchainTarget::SwapchainTarget(const VulkanContext& context, std::function<VkE
   color_space_ = surface_format.colorSpace;
   format_.depth = choose_depth_format(context);
   format_.samples = context.supported_samples(samples);
-  render_pass_ = create_scene_render_pass(context, format_, VK_IMAGE_LAYOUT_PRESENT_SRC_KHR);
+  render_pass_ = create_scene_render_pass(context, format_, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL);
+  overlay_pass_ = create_overlay_pass(context, format_.color);
   create_swapchain();
   if (present_on_thread) {
     presenter_ = std::thread([this] {
@@ -93,6 +140,7 @@ SwapchainTarget::~SwapchainTarget() {
   destroy_swapchain();
   context_.destroy(copy_);
   vkDestroyRenderPass(context_.device(), render_pass_, nullptr);
+  vkDestroyRenderPass(context_.device(), overlay_pass_, nullptr);
 }
 
 void SwapchainTarget::create_swapchain() {
@@ -117,7 +165,11 @@ void SwapchainTarget::create_swapchain() {
   info.imageColorSpace = color_space_;
   info.imageExtent = extent_;
   info.imageArrayLayers = 1;
-  info.imageUsage = VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT;
+  if (!(capabilities.supportedUsageFlags & VK_IMAGE_USAGE_TRANSFER_DST_BIT)) {
+    throw RenderError("the window's images cannot be copied into (no VK_IMAGE_USAGE_TRANSFER_DST_BIT), which drawing the scene "
+                      "once for several frames needs; hdeform render still makes pictures");
+  }
+  info.imageUsage = VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT;
   if (capabilities.supportedUsageFlags & VK_IMAGE_USAGE_TRANSFER_SRC_BIT) info.imageUsage |= VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
   info.imageSharingMode = VK_SHARING_MODE_EXCLUSIVE;
   info.preTransform = capabilities.currentTransform;
@@ -131,6 +183,20 @@ void SwapchainTarget::create_swapchain() {
   std::vector<VkImage> images(count);
   vkGetSwapchainImagesKHR(device, swapchain_, &count, images.data());
   attachments_.create(context_, format_, extent_);
+  scene_ = context_.create_image(extent_.width, extent_.height, format_.color, VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
+                                 VK_SAMPLE_COUNT_1_BIT, VK_IMAGE_ASPECT_COLOR_BIT);
+  {
+    const auto views = attachments_.views(format_, scene_.view);
+    VkFramebufferCreateInfo framebuffer{VK_STRUCTURE_TYPE_FRAMEBUFFER_CREATE_INFO};
+    framebuffer.renderPass = render_pass_;
+    framebuffer.attachmentCount = static_cast<uint32_t>(views.size());
+    framebuffer.pAttachments = views.data();
+    framebuffer.width = extent_.width;
+    framebuffer.height = extent_.height;
+    framebuffer.layers = 1;
+    check(vkCreateFramebuffer(device, &framebuffer, nullptr, &scene_framebuffer_), "vkCreateFramebuffer");
+  }
+  scene_kept_ = false;
   images_.resize(count);
   for (uint32_t i = 0; i < count; ++i) {
     SwapImage& swap_image = images_[i];
@@ -141,15 +207,14 @@ void SwapchainTarget::create_swapchain() {
     view.format = format_.color;
     view.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
     check(vkCreateImageView(device, &view, nullptr, &swap_image.view), "vkCreateImageView");
-    const auto views = attachments_.views(format_, swap_image.view);
     VkFramebufferCreateInfo framebuffer{VK_STRUCTURE_TYPE_FRAMEBUFFER_CREATE_INFO};
-    framebuffer.renderPass = render_pass_;
-    framebuffer.attachmentCount = static_cast<uint32_t>(views.size());
-    framebuffer.pAttachments = views.data();
+    framebuffer.renderPass = overlay_pass_;
+    framebuffer.attachmentCount = 1;
+    framebuffer.pAttachments = &swap_image.view;
     framebuffer.width = extent_.width;
     framebuffer.height = extent_.height;
     framebuffer.layers = 1;
-    check(vkCreateFramebuffer(device, &framebuffer, nullptr, &swap_image.framebuffer), "vkCreateFramebuffer");
+    check(vkCreateFramebuffer(device, &framebuffer, nullptr, &swap_image.overlay_framebuffer), "vkCreateFramebuffer");
     VkSemaphoreCreateInfo semaphore{VK_STRUCTURE_TYPE_SEMAPHORE_CREATE_INFO};
     check(vkCreateSemaphore(device, &semaphore, nullptr, &swap_image.render_finished), "vkCreateSemaphore");
   }
@@ -159,10 +224,14 @@ void SwapchainTarget::destroy_swapchain() {
   const VkDevice device = context_.device();
   for (SwapImage& swap_image : images_) {
     vkDestroySemaphore(device, swap_image.render_finished, nullptr);
-    vkDestroyFramebuffer(device, swap_image.framebuffer, nullptr);
+    vkDestroyFramebuffer(device, swap_image.overlay_framebuffer, nullptr);
     vkDestroyImageView(device, swap_image.view, nullptr);
   }
   images_.clear();
+  if (scene_framebuffer_ != VK_NULL_HANDLE) vkDestroyFramebuffer(device, scene_framebuffer_, nullptr);
+  scene_framebuffer_ = VK_NULL_HANDLE;
+  context_.destroy(scene_);
+  scene_kept_ = false;
   attachments_.destroy(context_);
   if (swapchain_ != VK_NULL_HANDLE) vkDestroySwapchainKHR(device, swapchain_, nullptr);
   swapchain_ = VK_NULL_HANDLE;
@@ -225,8 +294,39 @@ bool SwapchainTarget::acquire(VkSemaphore image_available, uint32_t& image) {
   return true;
 }
 
+void SwapchainTarget::begin_scene(VkCommandBuffer commands) { begin_scene_pass(commands, render_pass_, scene_framebuffer_, extent_); }
+
+void SwapchainTarget::end_scene(VkCommandBuffer commands) {
+  vkCmdEndRenderPass(commands);
+  scene_kept_ = true;
+}
+
 void SwapchainTarget::begin(VkCommandBuffer commands, uint32_t image) {
-  begin_scene_pass(commands, render_pass_, images_[image].framebuffer, extent_);
+  if (!scene_kept_) throw std::logic_error("SwapchainTarget::begin: no scene drawn at this size");
+  // The image, once presentation let go of it (the acquire semaphore's wait is at this stage),
+  // receives the scene; the scene pass left the scene image ready to be read by a copy.
+  VkImageMemoryBarrier barrier{VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER};
+  barrier.srcAccessMask = 0;
+  barrier.dstAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+  barrier.oldLayout = VK_IMAGE_LAYOUT_UNDEFINED;
+  barrier.newLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
+  barrier.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+  barrier.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+  barrier.image = images_[image].image;
+  barrier.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
+  vkCmdPipelineBarrier(commands, VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0, nullptr, 0, nullptr, 1,
+                       &barrier);
+  VkImageCopy region{};
+  region.srcSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+  region.dstSubresource = region.srcSubresource;
+  region.extent = {extent_.width, extent_.height, 1};
+  vkCmdCopyImage(commands, scene_.image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, images_[image].image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1,
+                 &region);
+  VkRenderPassBeginInfo begin{VK_STRUCTURE_TYPE_RENDER_PASS_BEGIN_INFO};
+  begin.renderPass = overlay_pass_;
+  begin.framebuffer = images_[image].overlay_framebuffer;
+  begin.renderArea = {{0, 0}, extent_};
+  vkCmdBeginRenderPass(commands, &begin, VK_SUBPASS_CONTENTS_INLINE);
 }
 
 void SwapchainTarget::end(VkCommandBuffer commands, uint32_t image, bool keep_copy) {

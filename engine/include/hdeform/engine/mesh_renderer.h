@@ -101,6 +101,10 @@ class MeshRenderer {
   /// Whether the frame the last prepare() set up draws the proxy: when its settings ask, or when
   /// its geometry holds only the proxy's vertices (GeometrySnapshot::only_vertices).
   bool prepared_proxy() const { return prepared_proxy_; }
+  /// Whether the last prepare() set up exactly the picture of the prepare() before it (the same
+  /// uniforms, geometry, field, classes, markers, triangles, pipelines and area), so that a target
+  /// that kept that picture need not draw it again.
+  bool prepared_as_before() const { return prepared_as_before_; }
 
  private:
   struct Frame {
@@ -151,6 +155,9 @@ class MeshRenderer {
   std::uint64_t drawn_geometry_version_ = 0;
   std::uint64_t drawn_geometry_tag_ = 0;
   bool prepared_proxy_ = false;
+  std::uint64_t mesh_generation_ = 0;      ///< set_mesh and set_proxy calls: the triangles drawn
+  std::vector<unsigned char> prepared_key_;  ///< what the last prepare() set up, byte for byte
+  bool prepared_as_before_ = false;
 };
 
 }  // namespace hdeform::engine
