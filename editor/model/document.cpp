@@ -51,6 +51,9 @@ Document::Document(Session session, Mesh base, DeformerOptions options, Publish 
   load_stage(session.current);
   active_handle_ = handles_.empty() ? 0 : std::clamp(session.active_handle, 0, static_cast<int>(handles_.size()) - 1);
   history_.push_back({this->session(), rest_, "open"});
+  // The set-up starts now, on the loading thread's time, rather than at the first poll: the
+  // editor still has the mesh to hand to the renderer (at 13 million triangles, seconds).
+  poll();
 }
 
 Document::~Document() {
