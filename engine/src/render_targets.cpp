@@ -1,6 +1,7 @@
 #include "hdeform/engine/render_targets.h"
 
 #include <array>
+#include <span>
 #include <cstring>
 
 namespace hdeform::engine {
@@ -13,6 +14,37 @@ VkFormat choose_depth_format(const VulkanContext& context) {
   }
   throw RenderError("the Vulkan device has no depth format to render to");
 }
+
+namespace {
+
+// One subpass over `attachments`.
+VkRenderPass create_render_pass(const VulkanContext& context, std::span<const VkAttachmentDescription> attachments, const VkSubpassDescription& subpass,
+                                std::span<const VkSubpassDependency> dependencies) {
+  VkRenderPassCreateInfo info{VK_STRUCTURE_TYPE_RENDER_PASS_CREATE_INFO};
+  info.attachmentCount = static_cast<uint32_t>(attachments.size());
+  info.pAttachments = attachments.data();
+  info.subpassCount = 1;
+  info.pSubpasses = &subpass;
+  info.dependencyCount = static_cast<uint32_t>(dependencies.size());
+  info.pDependencies = dependencies.data();
+  VkRenderPass pass = VK_NULL_HANDLE;
+  check(vkCreateRenderPass(context.device(), &info, nullptr, &pass), "vkCreateRenderPass");
+  return pass;
+}
+
+// The pass's colour writes finish before a copy or a presentation reads the image.
+VkSubpassDependency written_before_copy_or_presentation() {
+  VkSubpassDependency dependency{};
+  dependency.srcSubpass = 0;
+  dependency.dstSubpass = VK_SUBPASS_EXTERNAL;
+  dependency.srcStageMask = VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT;
+  dependency.dstStageMask = VK_PIPELINE_STAGE_TRANSFER_BIT | VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT;
+  dependency.srcAccessMask = VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT;
+  dependency.dstAccessMask = VK_ACCESS_TRANSFER_READ_BIT;
+  return dependency;
+}
+
+}  // namespace
 
 VkRenderPass create_scene_render_pass(const VulkanContext& context, const PassFormat& format, VkImageLayout final_layout) {
   const bool multisampled = format.samples != VK_SAMPLE_COUNT_1_BIT;
@@ -60,22 +92,36 @@ VkRenderPass create_scene_render_pass(const VulkanContext& context, const PassFo
   dependencies[0].srcAccessMask = VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT | VK_ACCESS_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT;
   dependencies[0].dstAccessMask = VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT | VK_ACCESS_COLOR_ATTACHMENT_READ_BIT |
                                   VK_ACCESS_DEPTH_STENCIL_ATTACHMENT_WRITE_BIT | VK_ACCESS_DEPTH_STENCIL_ATTACHMENT_READ_BIT;
-  dependencies[1].srcSubpass = 0;
-  dependencies[1].dstSubpass = VK_SUBPASS_EXTERNAL;
-  dependencies[1].srcStageMask = VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT;
-  dependencies[1].dstStageMask = VK_PIPELINE_STAGE_TRANSFER_BIT | VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT;
-  dependencies[1].srcAccessMask = VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT;
-  dependencies[1].dstAccessMask = VK_ACCESS_TRANSFER_READ_BIT;
-  VkRenderPassCreateInfo info{VK_STRUCTURE_TYPE_RENDER_PASS_CREATE_INFO};
-  info.attachmentCount = static_cast<uint32_t>(attachments.size());
-  info.pAttachments = attachments.data();
-  info.subpassCount = 1;
-  info.pSubpasses = &subpass;
-  info.dependencyCount = static_cast<uint32_t>(dependencies.size());
-  info.pDependencies = dependencies.data();
-  VkRenderPass pass = VK_NULL_HANDLE;
-  check(vkCreateRenderPass(context.device(), &info, nullptr, &pass), "vkCreateRenderPass");
-  return pass;
+  dependencies[1] = written_before_copy_or_presentation();
+  return create_render_pass(context, attachments, subpass, dependencies);
+}
+
+VkRenderPass create_overlay_render_pass(const VulkanContext& context, VkFormat format) {
+  VkAttachmentDescription color{};
+  color.format = format;
+  color.samples = VK_SAMPLE_COUNT_1_BIT;
+  color.loadOp = VK_ATTACHMENT_LOAD_OP_LOAD;
+  color.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+  color.stencilLoadOp = VK_ATTACHMENT_LOAD_OP_DONT_CARE;
+  color.stencilStoreOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
+  color.initialLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
+  color.finalLayout = VK_IMAGE_LAYOUT_PRESENT_SRC_KHR;
+  const VkAttachmentReference reference{0, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL};
+  VkSubpassDescription subpass{};
+  subpass.pipelineBindPoint = VK_PIPELINE_BIND_POINT_GRAPHICS;
+  subpass.colorAttachmentCount = 1;
+  subpass.pColorAttachments = &reference;
+  // The copy of the scene finishes before the interface is drawn over it; the drawing finishes
+  // before a screenshot's copy or the presentation reads the image.
+  std::array<VkSubpassDependency, 2> dependencies{};
+  dependencies[0].srcSubpass = VK_SUBPASS_EXTERNAL;
+  dependencies[0].dstSubpass = 0;
+  dependencies[0].srcStageMask = VK_PIPELINE_STAGE_TRANSFER_BIT;
+  dependencies[0].dstStageMask = VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT;
+  dependencies[0].srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
+  dependencies[0].dstAccessMask = VK_ACCESS_COLOR_ATTACHMENT_READ_BIT | VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT;
+  dependencies[1] = written_before_copy_or_presentation();
+  return create_render_pass(context, std::span(&color, 1), subpass, dependencies);
 }
 
 void SceneAttachments::create(const VulkanContext& context, const PassFormat& format, VkExtent2D extent) {
@@ -96,6 +142,19 @@ void SceneAttachments::destroy(const VulkanContext& context) {
 std::vector<VkImageView> SceneAttachments::views(const PassFormat& format, VkImageView target) const {
   if (format.samples == VK_SAMPLE_COUNT_1_BIT) return {target, depth.view};
   return {multisampled_color.view, depth.view, target};
+}
+
+VkFramebuffer create_framebuffer(const VulkanContext& context, VkRenderPass pass, std::span<const VkImageView> views, VkExtent2D extent) {
+  VkFramebufferCreateInfo info{VK_STRUCTURE_TYPE_FRAMEBUFFER_CREATE_INFO};
+  info.renderPass = pass;
+  info.attachmentCount = static_cast<uint32_t>(views.size());
+  info.pAttachments = views.data();
+  info.width = extent.width;
+  info.height = extent.height;
+  info.layers = 1;
+  VkFramebuffer framebuffer = VK_NULL_HANDLE;
+  check(vkCreateFramebuffer(context.device(), &info, nullptr, &framebuffer), "vkCreateFramebuffer");
+  return framebuffer;
 }
 
 void begin_scene_pass(VkCommandBuffer commands, VkRenderPass pass, VkFramebuffer framebuffer, VkExtent2D extent) {
@@ -124,15 +183,7 @@ OffscreenTarget::OffscreenTarget(const VulkanContext& context, uint32_t width, u
     attachments_.create(context, format_, extent_);
     color_ = context.create_image(width, height, format_.color, VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
                                   VK_SAMPLE_COUNT_1_BIT, VK_IMAGE_ASPECT_COLOR_BIT);
-    const auto views = attachments_.views(format_, color_.view);
-    VkFramebufferCreateInfo info{VK_STRUCTURE_TYPE_FRAMEBUFFER_CREATE_INFO};
-    info.renderPass = render_pass_;
-    info.attachmentCount = static_cast<uint32_t>(views.size());
-    info.pAttachments = views.data();
-    info.width = width;
-    info.height = height;
-    info.layers = 1;
-    check(vkCreateFramebuffer(context.device(), &info, nullptr, &framebuffer_), "vkCreateFramebuffer");
+    framebuffer_ = create_framebuffer(context, render_pass_, attachments_.views(format_, color_.view), extent_);
     readback_ = context.create_buffer(VkDeviceSize{width} * height * 4, VK_BUFFER_USAGE_TRANSFER_DST_BIT);
   } catch (...) {
     release();

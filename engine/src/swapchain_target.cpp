@@ -38,48 +38,18 @@ VkPresentModeKHR choose_present_mode(const VulkanContext& context, bool vsync) {
   return VK_PRESENT_MODE_FIFO_KHR;
 }
 
-// The user interface over the scene: the swapchain image, holding the scene copied into it, loaded
-// and drawn over, then presented (or copied for a screenshot first).
-VkRenderPass create_overlay_pass(const VulkanContext& context, VkFormat format) {
-  VkAttachmentDescription color{};
-  color.format = format;
-  color.samples = VK_SAMPLE_COUNT_1_BIT;
-  color.loadOp = VK_ATTACHMENT_LOAD_OP_LOAD;
-  color.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
-  color.stencilLoadOp = VK_ATTACHMENT_LOAD_OP_DONT_CARE;
-  color.stencilStoreOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
-  color.initialLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
-  color.finalLayout = VK_IMAGE_LAYOUT_PRESENT_SRC_KHR;
-  const VkAttachmentReference reference{0, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL};
-  VkSubpassDescription subpass{};
-  subpass.pipelineBindPoint = VK_PIPELINE_BIND_POINT_GRAPHICS;
-  subpass.colorAttachmentCount = 1;
-  subpass.pColorAttachments = &reference;
-  // The copy of the scene finishes before the interface is drawn over it; the drawing finishes
-  // before a screenshot's copy or the presentation reads the image.
-  std::array<VkSubpassDependency, 2> dependencies{};
-  dependencies[0].srcSubpass = VK_SUBPASS_EXTERNAL;
-  dependencies[0].dstSubpass = 0;
-  dependencies[0].srcStageMask = VK_PIPELINE_STAGE_TRANSFER_BIT;
-  dependencies[0].dstStageMask = VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT;
-  dependencies[0].srcAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
-  dependencies[0].dstAccessMask = VK_ACCESS_COLOR_ATTACHMENT_READ_BIT | VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT;
-  dependencies[1].srcSubpass = 0;
-  dependencies[1].dstSubpass = VK_SUBPASS_EXTERNAL;
-  dependencies[1].srcStageMask = VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT;
-  dependencies[1].dstStageMask = VK_PIPELINE_STAGE_TRANSFER_BIT | VK_PIPELINE_STAGE_BOTTOM_OF_PIPE_BIT;
-  dependencies[1].srcAccessMask = VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT;
-  dependencies[1].dstAccessMask = VK_ACCESS_TRANSFER_READ_BIT;
-  VkRenderPassCreateInfo info{VK_STRUCTURE_TYPE_RENDER_PASS_CREATE_INFO};
-  info.attachmentCount = 1;
-  info.pAttachments = &color;
-  info.subpassCount = 1;
-  info.pSubpasses = &subpass;
-  info.dependencyCount = static_cast<uint32_t>(dependencies.size());
-  info.pDependencies = dependencies.data();
-  VkRenderPass pass = VK_NULL_HANDLE;
-  check(vkCreateRenderPass(context.device(), &info, nullptr, &pass), "vkCreateRenderPass");
-  return pass;
+// A barrier that moves a colour image from one layout to another.
+VkImageMemoryBarrier color_layout_barrier(VkImage image, VkImageLayout from, VkImageLayout to, VkAccessFlags src_access, VkAccessFlags dst_access) {
+  VkImageMemoryBarrier barrier{VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER};
+  barrier.srcAccessMask = src_access;
+  barrier.dstAccessMask = dst_access;
+  barrier.oldLayout = from;
+  barrier.newLayout = to;
+  barrier.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+  barrier.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+  barrier.image = image;
+  barrier.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
+  return barrier;
 }
 
 }  // namespace
@@ -94,7 +64,7 @@ SwapchainTarget::SwapchainTarget(const VulkanContext& context, std::function<VkE
   format_.depth = choose_depth_format(context);
   format_.samples = context.supported_samples(samples);
   render_pass_ = create_scene_render_pass(context, format_, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL);
-  overlay_pass_ = create_overlay_pass(context, format_.color);
+  overlay_pass_ = create_overlay_render_pass(context, format_.color);
   create_swapchain();
   if (present_on_thread) {
     presenter_ = std::thread([this] {
@@ -185,17 +155,7 @@ void SwapchainTarget::create_swapchain() {
   attachments_.create(context_, format_, extent_);
   scene_ = context_.create_image(extent_.width, extent_.height, format_.color, VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
                                  VK_SAMPLE_COUNT_1_BIT, VK_IMAGE_ASPECT_COLOR_BIT);
-  {
-    const auto views = attachments_.views(format_, scene_.view);
-    VkFramebufferCreateInfo framebuffer{VK_STRUCTURE_TYPE_FRAMEBUFFER_CREATE_INFO};
-    framebuffer.renderPass = render_pass_;
-    framebuffer.attachmentCount = static_cast<uint32_t>(views.size());
-    framebuffer.pAttachments = views.data();
-    framebuffer.width = extent_.width;
-    framebuffer.height = extent_.height;
-    framebuffer.layers = 1;
-    check(vkCreateFramebuffer(device, &framebuffer, nullptr, &scene_framebuffer_), "vkCreateFramebuffer");
-  }
+  scene_framebuffer_ = create_framebuffer(context_, render_pass_, attachments_.views(format_, scene_.view), extent_);
   scene_kept_ = false;
   images_.resize(count);
   for (uint32_t i = 0; i < count; ++i) {
@@ -207,14 +167,7 @@ void SwapchainTarget::create_swapchain() {
     view.format = format_.color;
     view.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
     check(vkCreateImageView(device, &view, nullptr, &swap_image.view), "vkCreateImageView");
-    VkFramebufferCreateInfo framebuffer{VK_STRUCTURE_TYPE_FRAMEBUFFER_CREATE_INFO};
-    framebuffer.renderPass = overlay_pass_;
-    framebuffer.attachmentCount = 1;
-    framebuffer.pAttachments = &swap_image.view;
-    framebuffer.width = extent_.width;
-    framebuffer.height = extent_.height;
-    framebuffer.layers = 1;
-    check(vkCreateFramebuffer(device, &framebuffer, nullptr, &swap_image.overlay_framebuffer), "vkCreateFramebuffer");
+    swap_image.overlay_framebuffer = create_framebuffer(context_, overlay_pass_, std::span(&swap_image.view, 1), extent_);
     VkSemaphoreCreateInfo semaphore{VK_STRUCTURE_TYPE_SEMAPHORE_CREATE_INFO};
     check(vkCreateSemaphore(device, &semaphore, nullptr, &swap_image.render_finished), "vkCreateSemaphore");
   }
@@ -305,15 +258,8 @@ void SwapchainTarget::begin(VkCommandBuffer commands, uint32_t image) {
   if (!scene_kept_) throw std::logic_error("SwapchainTarget::begin: no scene drawn at this size");
   // The image, once presentation let go of it (the acquire semaphore's wait is at this stage),
   // receives the scene; the scene pass left the scene image ready to be read by a copy.
-  VkImageMemoryBarrier barrier{VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER};
-  barrier.srcAccessMask = 0;
-  barrier.dstAccessMask = VK_ACCESS_TRANSFER_WRITE_BIT;
-  barrier.oldLayout = VK_IMAGE_LAYOUT_UNDEFINED;
-  barrier.newLayout = VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL;
-  barrier.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-  barrier.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-  barrier.image = images_[image].image;
-  barrier.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
+  const VkImageMemoryBarrier barrier = color_layout_barrier(images_[image].image, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 0,
+                                                           VK_ACCESS_TRANSFER_WRITE_BIT);
   vkCmdPipelineBarrier(commands, VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0, nullptr, 0, nullptr, 1,
                        &barrier);
   VkImageCopy region{};
@@ -338,15 +284,8 @@ void SwapchainTarget::end(VkCommandBuffer commands, uint32_t image, bool keep_co
     copy_ = context_.create_buffer(bytes, VK_BUFFER_USAGE_TRANSFER_DST_BIT);
   }
   copy_extent_ = extent_;
-  VkImageMemoryBarrier barrier{VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER};
-  barrier.srcAccessMask = VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT;
-  barrier.dstAccessMask = VK_ACCESS_TRANSFER_READ_BIT;
-  barrier.oldLayout = VK_IMAGE_LAYOUT_PRESENT_SRC_KHR;
-  barrier.newLayout = VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL;
-  barrier.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-  barrier.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
-  barrier.image = images_[image].image;
-  barrier.subresourceRange = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
+  VkImageMemoryBarrier barrier = color_layout_barrier(images_[image].image, VK_IMAGE_LAYOUT_PRESENT_SRC_KHR, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
+                                                     VK_ACCESS_COLOR_ATTACHMENT_WRITE_BIT, VK_ACCESS_TRANSFER_READ_BIT);
   vkCmdPipelineBarrier(commands, VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0, nullptr, 0, nullptr,
                        1, &barrier);
   VkBufferImageCopy region{};

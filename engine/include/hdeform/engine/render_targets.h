@@ -1,10 +1,11 @@
 #pragma once
 /// @file
-/// Where frames go. Both targets share one render pass layout — multisampled colour and depth,
-/// resolved into a single-sampled image — so the same pipelines draw into either:
+/// Where frames go. Both targets draw the scene with one render pass layout — multisampled colour
+/// and depth, resolved into a single-sampled image — so the same pipelines draw into either:
 ///   OffscreenTarget: an image read back to memory (no window system, no X server);
 ///   SwapchainTarget: a window's swapchain (see swapchain_target.h).
 #include <cstdint>
+#include <span>
 #include <vector>
 
 #include "hdeform/engine/vulkan_context.h"
@@ -25,6 +26,11 @@ VkFormat choose_depth_format(const VulkanContext& context);
 /// attachment, which ends in `final_layout`.
 VkRenderPass create_scene_render_pass(const VulkanContext& context, const PassFormat& format, VkImageLayout final_layout);
 
+/// The user interface over a scene: one single-sampled colour attachment of `color`, which holds
+/// the scene copied into it (loaded from the transfer layout), drawn over and left ready to present
+/// (or to copy for a screenshot first).
+VkRenderPass create_overlay_render_pass(const VulkanContext& context, VkFormat color);
+
 /// The multisampled colour and the depth image of one framebuffer size.
 struct SceneAttachments {
   Image multisampled_color;  ///< only when samples > 1
@@ -39,6 +45,9 @@ struct SceneAttachments {
 
 /// The neutral background every picture is cleared to.
 inline constexpr float kBackground[3] = {0.80f, 0.82f, 0.85f};
+
+/// A framebuffer of `extent` for `pass` over `views` (in the pass's attachment order).
+VkFramebuffer create_framebuffer(const VulkanContext& context, VkRenderPass pass, std::span<const VkImageView> views, VkExtent2D extent);
 
 /// Begins a scene pass on `framebuffer`, clearing colour to kBackground and depth to 1.
 void begin_scene_pass(VkCommandBuffer commands, VkRenderPass pass, VkFramebuffer framebuffer, VkExtent2D extent);
