@@ -159,12 +159,26 @@ TEST_F(Window, ShowsWhatTheOffscreenTargetShowsAndSurvivesResizeAndMinimise) {
   ASSERT_TRUE(draw(3));
   EXPECT_EQ(drawing.scene_passes, 3);
   drawing.expect_the_offscreen_picture(*context);
+  // Classes set again to what they were change nothing; one vertex in another class does.
+  std::vector<uint32_t> classes(static_cast<std::size_t>(drawing.shape.mesh.vertex_count()), HD_CLASS_FREE);
+  drawing.renderer.set_classes(classes);
+  ASSERT_TRUE(draw(2));
+  EXPECT_EQ(drawing.scene_passes, 3);
+  classes[0] = engine::fixed_class();
+  drawing.renderer.set_classes(classes);
+  ASSERT_TRUE(draw(2));
+  EXPECT_EQ(drawing.scene_passes, 4);
+  classes[0] = HD_CLASS_FREE;
+  drawing.renderer.set_classes(classes);
+  ASSERT_TRUE(draw(2));
+  EXPECT_EQ(drawing.scene_passes, 5);
+  drawing.expect_the_offscreen_picture(*context);
 
   // A new size needs a new scene.
   glfwSetWindowSize(window, 400, 300);
   for (int k = 0; k < 20 && framebuffer_size().width != 400; ++k) glfwWaitEventsTimeout(0.05);
   ASSERT_TRUE(draw(4));
-  EXPECT_EQ(drawing.scene_passes, 4);
+  EXPECT_EQ(drawing.scene_passes, 6);
   EXPECT_EQ(target.extent().width, 400u);
   EXPECT_EQ(target.read_last_image().height, 300u);
   drawing.expect_the_offscreen_picture(*context);

@@ -319,24 +319,34 @@ void MeshRenderer::set_proxy(const Eigen::MatrixXi& triangles) {
   vkDeviceWaitIdle(context_.device());
   context_.destroy(proxy_indices_);
   proxy_index_count_ = 0;
-  ++mesh_generation_;
+  ++proxy_generation_;
   if (triangles.rows() == 0) return;
   proxy_indices_ = index_buffer(triangles);
   proxy_index_count_ = static_cast<uint32_t>(triangles.size());
 }
 
+// The attributes change (and the scene is drawn again) only where a value does: the editor sets
+// them again whenever the solver's state changes, mostly to the same values.
 void MeshRenderer::set_field(std::span<const float> values) {
-  has_field_ = !values.empty() && values.size() == vertex_count_;
-  for (std::size_t v = 0; v < vertex_count_; ++v) attributes_[2 * v] = has_field_ ? values[v] : 0.0f;
-  ++attributes_version_;
+  const bool has_field = !values.empty() && values.size() == vertex_count_;
+  bool changed = has_field != has_field_;
+  has_field_ = has_field;
+  for (std::size_t v = 0; v < vertex_count_; ++v) {
+    const float value = has_field_ ? values[v] : 0.0f;
+    changed = changed || std::memcmp(&attributes_[2 * v], &value, sizeof value) != 0;
+    attributes_[2 * v] = value;
+  }
+  if (changed) ++attributes_version_;
 }
 
 void MeshRenderer::set_classes(std::span<const uint32_t> classes) {
+  bool changed = false;
   for (std::size_t v = 0; v < vertex_count_; ++v) {
     const uint32_t value = v < classes.size() ? classes[v] : HD_CLASS_FREE;
+    changed = changed || std::memcmp(&attributes_[2 * v + 1], &value, sizeof value) != 0;
     std::memcpy(&attributes_[2 * v + 1], &value, sizeof value);
   }
-  ++attributes_version_;
+  if (changed) ++attributes_version_;
 }
 
 void MeshRenderer::set_markers(std::span<const Marker> markers) {
@@ -432,6 +442,7 @@ void MeshRenderer::prepare(uint32_t frame_index, const Camera& camera, const Ren
   append(markers_version_);
   append(frame.marker_count);
   append(mesh_generation_);
+  if (prepared_proxy_) append(proxy_generation_);  // a new proxy changes nothing until it is drawn
   append(settings.wireframe);
   append(settings.back_faces);
   append(area.offset.x);

@@ -155,7 +155,8 @@ class MeshRenderer {
   std::uint64_t drawn_geometry_version_ = 0;
   std::uint64_t drawn_geometry_tag_ = 0;
   bool prepared_proxy_ = false;
-  std::uint64_t mesh_generation_ = 0;      ///< set_mesh and set_proxy calls: the triangles drawn
+  std::uint64_t mesh_generation_ = 0;      ///< set_mesh calls: the mesh's triangles
+  std::uint64_t proxy_generation_ = 0;     ///< set_proxy calls: the proxy's triangles
   std::vector<unsigned char> prepared_key_;  ///< what the last prepare() set up, byte for byte
   bool prepared_as_before_ = false;
 };
