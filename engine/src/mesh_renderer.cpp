@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <cstring>
+#include <utility>
 
 #include "hdeform/engine/closed_mesh.h"
 #include "hdeform/engine/palette.h"
@@ -429,7 +430,9 @@ void MeshRenderer::prepare(uint32_t frame_index, const Camera& camera, const Ren
   std::memcpy(frame.uniforms.mapped, &u, sizeof u);
 
   // What record() will draw from this, byte for byte: the uniforms and what else it reads.
-  std::vector<unsigned char> key(sizeof u);
+  // (Into the storage of the key before last: no allocation once the sizes settle.)
+  std::vector<unsigned char>& key = previous_key_;
+  key.resize(sizeof u);
   std::memcpy(key.data(), &u, sizeof u);
   auto append = [&key](const auto& value) {
     const auto* bytes = reinterpret_cast<const unsigned char*>(&value);
@@ -450,7 +453,7 @@ void MeshRenderer::prepare(uint32_t frame_index, const Camera& camera, const Ren
   append(area.extent.width);
   append(area.extent.height);
   prepared_as_before_ = key == prepared_key_;
-  prepared_key_ = std::move(key);
+  std::swap(prepared_key_, previous_key_);
 }
 
 void MeshRenderer::record(VkCommandBuffer commands, uint32_t frame_index, VkRect2D area) const {

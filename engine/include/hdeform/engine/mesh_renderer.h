@@ -158,6 +158,7 @@ class MeshRenderer {
   std::uint64_t mesh_generation_ = 0;      ///< set_mesh calls: the mesh's triangles
   std::uint64_t proxy_generation_ = 0;     ///< set_proxy calls: the proxy's triangles
   std::vector<unsigned char> prepared_key_;  ///< what the last prepare() set up, byte for byte
+  std::vector<unsigned char> previous_key_;  ///< the one before: storage for the next
   bool prepared_as_before_ = false;
 };
 
