@@ -130,6 +130,31 @@ TEST(Selection, BallLassoGrowShrinkAndConnected) {
   EXPECT_EQ(cli::connected_vertices(0, adjacency).size(), static_cast<std::size_t>(grid.vertex_count()));
 }
 
+// Large enough that the halves are built in parallel (32K triangles and more): the nearest hit
+// is still the one found by testing every triangle, and a refit after a move follows it.
+TEST(MeshPicker, ABuildInParallelFindsWhatTestingEveryTriangleFinds) {
+  Mesh mesh = test::planar_grid(160, 1.0, 0.3, 5);  // 51,200 triangles, jittered
+  mesh.positions.col(2) = 0.05 * (7.0 * mesh.positions.col(0)).array().sin() * (5.0 * mesh.positions.col(1)).array().cos();
+  cli::MeshPicker picker(mesh.triangles, snapshot_of(mesh));
+  std::mt19937 random(11);
+  std::uniform_real_distribution<float> uniform(0.0f, 1.0f);
+  for (int pass = 0; pass < 2; ++pass) {
+    for (int k = 0; k < 200; ++k) {
+      const Eigen::Vector3f origin(uniform(random), uniform(random), 1.0f);
+      const Eigen::Vector3f target(uniform(random), uniform(random), 0.0f);
+      const Eigen::ParametrizedLine<float, 3> ray(origin, (target - origin).normalized());
+      const auto hit = picker.pick(ray);
+      const auto expected = brute_force_pick(mesh, ray);
+      ASSERT_EQ(hit.has_value(), expected.has_value()) << "pass " << pass << ", ray " << k;
+      if (hit) {
+        EXPECT_NEAR(hit->distance, expected->second, 1e-4f) << "pass " << pass << ", ray " << k;
+      }
+    }
+    mesh.positions.col(2) *= -2.0;  // a new shape: the second pass picks after a refit
+    picker.refit(snapshot_of(mesh));
+  }
+}
+
 // Each vertex's one ring, sorted and without repeats, against a set of edges built in the test:
 // random triangle lists with repeated corners (an edge from a vertex to itself is none),
 // non-manifold edges, and vertices that no triangle uses.

@@ -5,6 +5,7 @@
 #include <Eigen/Geometry>
 #include <optional>
 #include <span>
+#include <unordered_map>
 #include <vector>
 
 namespace hdeform::cli {
@@ -32,8 +33,20 @@ class MeshPicker {
     int first = 0;  // leaves: first index into order_; inner nodes: the left child
     int count = 0;  // leaves: number of triangles (> 0); inner nodes: minus the right child
   };
+  struct Centred {
+    Eigen::Vector3f centroid;  // three times the centroid: only the order matters
+    int triangle = 0;
+  };
   Eigen::Vector3f vertex(int v) const { return {positions_[6 * v], positions_[6 * v + 1], positions_[6 * v + 2]}; }
-  int build(int begin, int end);
+  class SubtreeSizes {
+   public:
+    int nodes(int triangles);              // computes and keeps
+    int known_nodes(int triangles) const;  // one computed before
+   private:
+    std::unordered_map<int, int> nodes_of_;
+  };
+  void build(const SubtreeSizes& sizes, std::vector<Centred>& centred, int begin, int end, int index);
+  void fit_boxes();
 
   Eigen::MatrixXi triangles_;
   std::vector<float> positions_;
