@@ -155,6 +155,52 @@ TEST(MeshPicker, ABuildInParallelFindsWhatTestingEveryTriangleFinds) {
   }
 }
 
+// A stroke's stamps lie along the path, evenly, however long its legs; the union of balls or
+// discs is what testing each stamp alone and merging gives.
+TEST(Selection, AStrokeIsStampedAlongItsWholePath) {
+  const std::vector<Eigen::Vector2f> path{{10, 0}, {10, 0}, {10, 7}, {10.5f, 7}};
+  const auto stamps = cli::stamps_along(Eigen::Vector2f(0, 0), path, 2.0f);
+  // 17.5 pixels of path: a stamp every 2 of them (8) and one at the end.
+  ASSERT_EQ(stamps.size(), 9u);
+  EXPECT_TRUE(stamps.front().isApprox(Eigen::Vector2f(2, 0)));
+  EXPECT_TRUE(stamps[4].isApprox(Eigen::Vector2f(10, 0)));
+  EXPECT_TRUE(stamps[5].isApprox(Eigen::Vector2f(10, 2)));  // around the corner, 2 along the path
+  EXPECT_TRUE(stamps.back().isApprox(Eigen::Vector2f(10.5f, 7)));
+  for (std::size_t k = 1; k + 1 < stamps.size(); ++k) EXPECT_LE((stamps[k] - stamps[k - 1]).norm(), 2.0f + 1e-5f);
+  EXPECT_TRUE(cli::stamps_along(Eigen::Vector2f(3, 3), std::vector<Eigen::Vector2f>{{3, 3}}, 2.0f).empty());  // the pointer did not move
+  EXPECT_EQ(cli::stamps_along(Eigen::Vector2f(0, 0), std::vector<Eigen::Vector2f>{{1, 0}}, 2.0f).size(), 1u);  // shorter than the spacing
+
+  const Mesh grid = test::planar_grid(60, 1.0, 0.3, 2);
+  const auto snapshot = snapshot_of(grid);
+  std::mt19937 random(4);
+  std::uniform_real_distribution<float> uniform(0.0f, 1.0f);
+  std::vector<Eigen::Vector3f> centres;
+  for (int k = 0; k < 30; ++k) centres.emplace_back(0.3f + 0.4f * uniform(random), 0.2f + 0.02f * static_cast<float>(k), 0.0f);
+  std::set<int> expected;
+  for (const auto& centre : centres) {
+    for (int v : cli::vertices_in_ball(snapshot, centre, 0.05f)) expected.insert(v);
+  }
+  const auto found = cli::vertices_in_balls(snapshot, centres, 0.05f);
+  EXPECT_TRUE(std::is_sorted(found.begin(), found.end()));
+  EXPECT_EQ(std::set<int>(found.begin(), found.end()), expected);
+  EXPECT_GT(expected.size(), 100u);
+
+  Eigen::Matrix4f view_projection = Eigen::Matrix4f::Identity();  // the unit square onto 100×100 pixels
+  view_projection(0, 0) = 2.0f;
+  view_projection(0, 3) = -1.0f;
+  view_projection(1, 1) = 2.0f;
+  view_projection(1, 3) = -1.0f;
+  std::vector<Eigen::Vector2f> discs;
+  std::set<int> expected_on_screen;
+  for (const auto& centre : centres) {
+    discs.emplace_back(100.0f * centre.x(), 100.0f * centre.y());
+    for (int v : cli::vertices_in_screen_disc(snapshot, discs.back(), 4.0f, view_projection, 100, 100)) expected_on_screen.insert(v);
+  }
+  const auto on_screen = cli::vertices_in_screen_discs(snapshot, discs, 4.0f, view_projection, 100, 100);
+  EXPECT_EQ(std::set<int>(on_screen.begin(), on_screen.end()), expected_on_screen);
+  EXPECT_GT(expected_on_screen.size(), 100u);
+}
+
 // Each vertex's one ring, sorted and without repeats, against a set of edges built in the test:
 // random triangle lists with repeated corners (an edge from a vertex to itself is none),
 // non-manifold edges, and vertices that no triangle uses.

@@ -5,6 +5,9 @@
 // render of the same state; kill -9 and restart restores the state before the kill; a bad mesh
 // is explained in a dialog; typed values are undoable and reach the recovery file; SIGTERM keeps
 // the session for a restore prompt that names it; the validation layer reports nothing.
+#include <limits>
+#include <set>
+
 #include "editor_gui_harness.h"
 #include "hdeform/engine/proxy_mesh.h"
 
@@ -147,6 +150,61 @@ TEST_F(EditorGui, ThePointerOverThePanelRedrawsThePanelAndNotTheScene) {
   const int frames = exit_event.value("frames", 0), scene_frames = exit_event.value("scene_frames", 0);
   EXPECT_GE(scene_frames, 1);
   EXPECT_GE(frames - scene_frames, 15) << frames << " frames, " << scene_frames << " of them drew the scene";
+}
+
+// A stroke follows every position the pointer reported, not one per frame: on a CPU device a
+// frame of a scan takes half a second, and a stroke painted dabs where the frames fell. Here the
+// whole stroke comes in one burst (one xdotool call), so its moves share a frame or two.
+TEST_F(EditorGui, AStrokeWhoseMovesArriveInOneFramePaintsItsWholePath) {
+  Editor editor(editor_arguments("no"));
+  editor.wait_for("opened");
+  ASSERT_NO_FATAL_FAILURE(find_window());
+  // The trunk's side that faces the camera, low and high (the arms leave it sideways).
+  const auto trunk_front = [&](double height) {
+    std::vector<int> ring;
+    for (Eigen::Index v = 0; v < rest.vertex_count(); ++v) {
+      const double r = rest.positions.row(v).head<2>().norm();
+      if (std::abs(r - 0.1) < 1e-3 && std::abs(rest.positions(v, 2) - height) < 0.02) ring.push_back(static_cast<int>(v));
+    }
+    return facing_vertex(rest, ring, view);
+  };
+  const Eigen::Vector2f from = view.pixel(rest.positions.row(trunk_front(0.12)).transpose());
+  const Eigen::Vector2f to = view.pixel(rest.positions.row(trunk_front(0.68)).transpose());
+  ASSERT_GT((to - from).norm(), 100.0f) << "the trunk should cross much of the view";
+  press("2");  // paint fixed
+  move_to(from);
+  std::string burst = "mousedown 1";
+  constexpr int kSteps = 12;
+  for (int k = 1; k <= kSteps; ++k) burst += " mousemove --window " + window + " " + at(from + (to - from) * (static_cast<float>(k) / kSteps));
+  xdotool(burst + " mouseup 1");
+  const auto session = recovery_holding(dir.file("recovery.json"), [](const cli::Session& held) { return !held.current.fixed.empty(); });
+  ASSERT_TRUE(session.has_value());
+  const std::set<int> fixed(session->current.fixed.begin(), session->current.fixed.end());
+  // Every 5% of the way, the trunk's front vertex nearest to that pixel is painted.
+  int missed = 0;
+  for (int k = 0; k <= 20; ++k) {
+    const Eigen::Vector2f pixel = from + (to - from) * (static_cast<float>(k) / 20.0f);
+    int nearest = -1;
+    float best = std::numeric_limits<float>::infinity();
+    for (Eigen::Index v = 0; v < rest.vertex_count(); ++v) {
+      const Eigen::Vector3d p = rest.positions.row(v).transpose();
+      const Eigen::Vector2d outward = p.head<2>();
+      const Eigen::Vector2d towards_camera = view.camera.position().head<2>().cast<double>() - outward;
+      if (std::abs(outward.norm() - 0.1) > 1e-3 || outward.dot(towards_camera) <= 0.0) continue;  // not the trunk's side we see
+      const float distance = (view.pixel(p) - pixel).norm();
+      if (distance < best) {
+        best = distance;
+        nearest = static_cast<int>(v);
+      }
+    }
+    ASSERT_GE(nearest, 0);
+    if (fixed.count(nearest) == 0) ++missed;
+  }
+  EXPECT_EQ(missed, 0) << "of 21 points along the stroke; " << fixed.size() << " vertices painted";
+  press("ctrl+q");
+  editor.wait_for("dialog");
+  press("d");  // discard
+  EXPECT_EQ(editor.wait_exit(), 0);
 }
 
 TEST_F(EditorGui, AfterKillNineTheNextStartRestoresTheStateBeforeTheKill) {

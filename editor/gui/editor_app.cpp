@@ -296,8 +296,10 @@ std::uint64_t EditorApp::post_pending_solve() {
 void EditorApp::step() {
   const std::vector<InputEvent> events = input_.take_frame();
   frame_keys_.clear();
+  frame_pointer_path_.clear();
   for (const InputEvent& event : events) {
     if (event.kind == InputEvent::Kind::Key && event.action == GLFW_PRESS) frame_keys_.push_back({event.code, event.mods});
+    if (event.kind == InputEvent::Kind::Move) frame_pointer_path_.emplace_back(static_cast<float>(event.x), static_cast<float>(event.y));
   }
   finish_load();
   finish_proxy();

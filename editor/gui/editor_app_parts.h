@@ -395,7 +395,12 @@ class EditorApp {
   // The brush on screen: its centre and radius in window pixels, its world size at the cursor's
   // depth on the mesh (painting through, at the view target's depth where the cursor misses it).
   std::optional<std::pair<ImVec2, float>> brush_on_screen(const ImVec2& mouse);
+  // Paints under the brush at `mouse` (a stroke's first stamp), or along the way from the last
+  // stamp through this frame's pointer positions.
   void paint_brush(const ImVec2& mouse);
+  void paint_brush_along(std::span<const ImVec2> path);
+  void paint_stamps(std::span<const ImVec2> stamps);
+  void extend_lasso(std::span<const ImVec2> path);
   void paint_lasso();
   void paint_connected(const ImVec2& mouse);
 
@@ -477,7 +482,8 @@ class EditorApp {
   bool dragging_ = false;
   bool camera_drag_ = false;
   ImVec2 drag_cursor_{};  // the cursor position the handle drag has applied up to
-  std::vector<ImVec2> stroke_;
+  std::vector<ImVec2> stroke_;  // the lasso's points
+  ImVec2 last_stamp_{};          // where the brush last painted in this stroke
   bool view_dirty_ = true;
   struct KeyPress {
     int key;
@@ -486,6 +492,7 @@ class EditorApp {
   InputQueue input_;  // from the window's callbacks, a frame's worth at a time
   ImGuiInputFeed imgui_input_;
   std::vector<KeyPress> frame_keys_;   // this frame's
+  std::vector<ImVec2> frame_pointer_path_;  // this frame's pointer positions, oldest first: a stroke follows each
 
   bool show_help_ = false;
   bool keep_recovery_ = false;

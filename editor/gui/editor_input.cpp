@@ -104,6 +104,16 @@ void EditorApp::handle_mouse() {
     }
   }
   if (!dragging_) return;
+  // A stroke follows every position the pointer reported, however many came in one frame (a
+  // frame of a large mesh on a CPU device takes half a second); the first frame of a drag paints
+  // where the button went down.
+  const bool pressed_now = ImGui::IsMouseClicked(ImGuiMouseButton_Left);
+  const std::span<const ImVec2> path = pressed_now ? std::span<const ImVec2>(&mouse, 1) : std::span<const ImVec2>(frame_pointer_path_);
+  if (is_paint_tool(tools_.tool)) {
+    if (tools_.lasso) extend_lasso(path);
+    else if (pressed_now) paint_brush(mouse);
+    else paint_brush_along(path);
+  }
   if (ImGui::IsMouseReleased(ImGuiMouseButton_Left) || !ImGui::IsMouseDown(ImGuiMouseButton_Left)) {
     dragging_ = false;
     gizmo_drag_ = GizmoPart::None;
@@ -112,15 +122,13 @@ void EditorApp::handle_mouse() {
                                        : lowercase_first(tool_name(tools_.tool)) + " " + std::to_string(document_->active_handle() + 1));
     return;
   }
-  if (is_paint_tool(tools_.tool)) {
-    if (tools_.lasso) {
-      if (stroke_.empty() || std::hypot(stroke_.back().x - mouse.x, stroke_.back().y - mouse.y) > 3.0f) stroke_.push_back(mouse);
-    } else {
-      paint_brush(mouse);
-    }
-    return;
+  if (!is_paint_tool(tools_.tool)) continue_handle_drag(mouse, last_input_);
+}
+
+void EditorApp::extend_lasso(std::span<const ImVec2> path) {
+  for (const ImVec2& point : path) {
+    if (stroke_.empty() || std::hypot(stroke_.back().x - point.x, stroke_.back().y - point.y) > 3.0f) stroke_.push_back(point);
   }
-  continue_handle_drag(mouse, last_input_);
 }
 
 void EditorApp::continue_handle_drag(const ImVec2& cursor, Clock::time_point event_time) {
@@ -143,22 +151,51 @@ std::optional<std::pair<ImVec2, float>> EditorApp::brush_on_screen(const ImVec2&
 }
 
 void EditorApp::paint_brush(const ImVec2& mouse) {
+  last_stamp_ = mouse;
+  paint_stamps(std::span(&mouse, 1));
+}
+
+void EditorApp::paint_brush_along(std::span<const ImVec2> path) {
+  if (path.empty()) return;
+  // A stamp every half brush radius on screen (measured where the stroke last painted).
+  const auto brush = brush_on_screen(last_stamp_);
+  const float spacing = std::max(1.0f, 0.5f * (brush ? brush->second : 0.0f));
+  std::vector<Eigen::Vector2f> points;
+  for (const ImVec2& point : path) points.emplace_back(point.x, point.y);
+  std::vector<ImVec2> stamps;
+  for (const Eigen::Vector2f& stamp : stamps_along(Eigen::Vector2f(last_stamp_.x, last_stamp_.y), points, spacing)) stamps.emplace_back(stamp.x(), stamp.y());
+  if (stamps.empty()) return;
+  last_stamp_ = stamps.back();
+  paint_stamps(stamps);
+}
+
+void EditorApp::paint_stamps(std::span<const ImVec2> stamps) {
   const auto* shown = shown_geometry();
   if (shown == nullptr) return;
   std::vector<int> vertices;
   if (tools_.paint_through) {
-    // Everything under the brush's circle, front and back.
-    const auto brush = brush_on_screen(mouse);
-    if (!brush) return;
+    // Everything under the brush's circles, front and back.
     const ImVec2 scale = ImGui::GetIO().DisplayFramebufferScale;
+    std::vector<Eigen::Vector2f> centres;
+    float radius = 0.0f;
+    for (const ImVec2& stamp : stamps) {
+      const auto brush = brush_on_screen(stamp);
+      if (!brush) continue;
+      centres.emplace_back(brush->first.x * scale.x, brush->first.y * scale.y);
+      radius = brush->second * scale.x;
+    }
+    if (centres.empty()) return;
     const auto extent = target_->extent();
-    vertices = vertices_in_screen_disc(shown->position_normal, Eigen::Vector2f(brush->first.x * scale.x, brush->first.y * scale.y), brush->second * scale.x,
-                                       camera_.view_projection(static_cast<float>(extent.width) / static_cast<float>(extent.height)),
-                                       static_cast<float>(extent.width), static_cast<float>(extent.height));
+    vertices = vertices_in_screen_discs(shown->position_normal, centres, radius,
+                                        camera_.view_projection(static_cast<float>(extent.width) / static_cast<float>(extent.height)),
+                                        static_cast<float>(extent.width), static_cast<float>(extent.height));
   } else {
-    const auto hit = picker_.current()->pick(cursor_ray(mouse));
-    if (!hit) return;
-    vertices = vertices_in_ball(shown->position_normal, hit->point, brush_radius_);
+    std::vector<Eigen::Vector3f> centres;
+    for (const ImVec2& stamp : stamps) {
+      if (const auto hit = picker_.current()->pick(cursor_ray(stamp))) centres.push_back(hit->point);
+    }
+    if (centres.empty()) return;
+    vertices = vertices_in_balls(shown->position_normal, centres, brush_radius_);
   }
   document_->paint(vertices, layer_of(tools_.tool), tools_.erase);
   view_dirty_ = true;

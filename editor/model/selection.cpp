@@ -1,5 +1,6 @@
 #include "selection.h"
 
+#include <Eigen/Geometry>
 #include <algorithm>
 
 namespace hdeform::cli {
@@ -36,15 +37,74 @@ VertexAdjacency::VertexAdjacency(const Eigen::MatrixXi& triangles, Eigen::Index 
   }
 }
 
-std::vector<int> vertices_in_ball(std::span<const float> position_normal, const Eigen::Vector3f& center, float radius) {
+namespace {
+
+// Centres of a stroke, a few at a time with their box grown by the radius: the stamps of a stroke
+// lie along a path, so most points are rejected by a few boxes, not tested against every stamp.
+template <int Dimension>
+class CentreGroups {
+ public:
+  using Point = Eigen::Matrix<float, Dimension, 1>;
+  CentreGroups(std::span<const Point> centres, float radius) : centres_(centres), radius_squared_(radius * radius) {
+    for (std::size_t first = 0; first < centres.size(); first += kPerGroup) {
+      Eigen::AlignedBox<float, Dimension> box;
+      for (std::size_t k = first; k < std::min(first + kPerGroup, centres.size()); ++k) box.extend(centres[k]);
+      box.min().array() -= radius;
+      box.max().array() += radius;
+      boxes_.push_back(box);
+      all_.extend(box);
+    }
+  }
+  bool contain(const Point& point) const {
+    if (boxes_.empty() || !all_.contains(point)) return false;
+    for (std::size_t g = 0; g < boxes_.size(); ++g) {
+      if (!boxes_[g].contains(point)) continue;
+      for (std::size_t k = g * kPerGroup; k < std::min((g + 1) * kPerGroup, centres_.size()); ++k) {
+        if ((point - centres_[k]).squaredNorm() <= radius_squared_) return true;
+      }
+    }
+    return false;
+  }
+
+ private:
+  static constexpr std::size_t kPerGroup = 8;
+  std::span<const Point> centres_;
+  float radius_squared_;
+  std::vector<Eigen::AlignedBox<float, Dimension>> boxes_;
+  Eigen::AlignedBox<float, Dimension> all_;
+};
+
+}  // namespace
+
+std::vector<int> vertices_in_balls(std::span<const float> position_normal, std::span<const Eigen::Vector3f> centres, float radius) {
+  const CentreGroups<3> groups(centres, radius);
   std::vector<int> inside;
-  const float radius_squared = radius * radius;
   const std::size_t n = position_normal.size() / 6;
   for (std::size_t v = 0; v < n; ++v) {
-    const Eigen::Vector3f p(position_normal[6 * v], position_normal[6 * v + 1], position_normal[6 * v + 2]);
-    if ((p - center).squaredNorm() <= radius_squared) inside.push_back(static_cast<int>(v));
+    if (groups.contain(Eigen::Vector3f(position_normal[6 * v], position_normal[6 * v + 1], position_normal[6 * v + 2]))) inside.push_back(static_cast<int>(v));
   }
   return inside;
+}
+
+std::vector<int> vertices_in_ball(std::span<const float> position_normal, const Eigen::Vector3f& center, float radius) {
+  return vertices_in_balls(position_normal, std::span(&center, 1), radius);
+}
+
+std::vector<Eigen::Vector2f> stamps_along(const Eigen::Vector2f& from, std::span<const Eigen::Vector2f> path, float spacing) {
+  std::vector<Eigen::Vector2f> stamps;
+  Eigen::Vector2f start = from;
+  float since_stamp = 0.0f;  // along the path
+  for (const Eigen::Vector2f& point : path) {
+    const Eigen::Vector2f leg = point - start;
+    const float length = leg.norm();
+    if (length == 0.0f) continue;
+    float at = spacing - since_stamp;
+    for (; at <= length; at += spacing) stamps.push_back(start + leg * (at / length));
+    since_stamp = length - (at - spacing);
+    start = point;
+  }
+  if (since_stamp > 0.0f) stamps.push_back(start);
+  return stamps;
 }
 
 namespace {
@@ -58,15 +118,21 @@ std::optional<Eigen::Vector2f> project_to_pixel(const float* position, const Eig
 
 }  // namespace
 
-std::vector<int> vertices_in_screen_disc(std::span<const float> position_normal, const Eigen::Vector2f& center, float radius,
-                                         const Eigen::Matrix4f& view_projection, float width, float height) {
+std::vector<int> vertices_in_screen_discs(std::span<const float> position_normal, std::span<const Eigen::Vector2f> centres, float radius,
+                                          const Eigen::Matrix4f& view_projection, float width, float height) {
+  const CentreGroups<2> groups(centres, radius);
   std::vector<int> inside;
   const std::size_t n = position_normal.size() / 6;
   for (std::size_t v = 0; v < n; ++v) {
     const auto pixel = project_to_pixel(position_normal.data() + 6 * v, view_projection, width, height);
-    if (pixel && (*pixel - center).squaredNorm() <= radius * radius) inside.push_back(static_cast<int>(v));
+    if (pixel && groups.contain(*pixel)) inside.push_back(static_cast<int>(v));
   }
   return inside;
+}
+
+std::vector<int> vertices_in_screen_disc(std::span<const float> position_normal, const Eigen::Vector2f& center, float radius,
+                                         const Eigen::Matrix4f& view_projection, float width, float height) {
+  return vertices_in_screen_discs(position_normal, std::span(&center, 1), radius, view_projection, width, height);
 }
 
 std::vector<int> vertices_in_lasso(std::span<const float> position_normal, std::span<const Eigen::Vector2f> polygon,

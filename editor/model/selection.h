@@ -24,8 +24,14 @@ class VertexAdjacency {
   std::vector<int> neighbours_;
 };
 
-// Vertices within `radius` of `center`.
+// Vertices within `radius` of `center`; of any of `centres` (a stroke's stamps), in one pass.
 std::vector<int> vertices_in_ball(std::span<const float> position_normal, const Eigen::Vector3f& center, float radius);
+std::vector<int> vertices_in_balls(std::span<const float> position_normal, std::span<const Eigen::Vector3f> centres, float radius);
+
+// A brush stroke's stamps after the one at `from`, as the pointer went on through `path`: a stamp
+// every `spacing` pixels along the way (so a stroke is continuous however far the pointer moved
+// between two frames) and one where the path ends.
+std::vector<Eigen::Vector2f> stamps_along(const Eigen::Vector2f& from, std::span<const Eigen::Vector2f> path, float spacing);
 
 // Vertices whose projection (view_projection, a width×height view, y down) lies inside the
 // polygon (pixels) and whose normal faces `towards_viewer`: what the user sees inside the lasso.
@@ -38,6 +44,8 @@ std::vector<int> vertices_in_lasso(std::span<const float> position_normal, std::
 // whatever its depth (a ring painted from one side is the whole ring).
 std::vector<int> vertices_in_screen_disc(std::span<const float> position_normal, const Eigen::Vector2f& center, float radius,
                                          const Eigen::Matrix4f& view_projection, float width, float height);
+std::vector<int> vertices_in_screen_discs(std::span<const float> position_normal, std::span<const Eigen::Vector2f> centres, float radius,
+                                          const Eigen::Matrix4f& view_projection, float width, float height);
 
 // The members plus every neighbour of a member.
 std::vector<bool> grown(const std::vector<bool>& members, const VertexAdjacency& adjacency);
