@@ -303,6 +303,7 @@ void EditorApp::step() {
   }
   finish_load();
   finish_proxy();
+  prepare_picking();
   if (!dropped_paths_.empty()) {
     if (mode_ == Mode::Transfer) transfer_->drop(dropped_paths_, ImGui::GetIO().MousePos);
     else open_path(dropped_paths_.front());

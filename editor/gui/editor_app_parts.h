@@ -456,6 +456,8 @@ class EditorApp {
   // when it is done (finish_proxy, each frame).
   void start_proxy();
   void finish_proxy();
+  // Builds the picker ahead of the first pick where the cores have nothing else to do.
+  void prepare_picking();
   // Whether the geometry moves this frame: a handle dragged, the view turned, a new solve.
   bool view_moving();
   Clock::time_point build_started_{};

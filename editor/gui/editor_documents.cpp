@@ -280,6 +280,13 @@ void EditorApp::finish_proxy() {
   print_json_line({{"event", "proxy"}, {"triangles", outcome.result->rows()}});
 }
 
+void EditorApp::prepare_picking() {
+  // Once the cores are free of the proxy and the solver's set-up, so as not to slow them.
+  if (!document_ || picker_.prepared() || proxy_task_.running() || document_->solver_state() == Document::SolverState::Building) return;
+  const engine::GeometrySnapshot* shown = exchange_->acquire();
+  if (shown != nullptr && !shown->only_vertices) picker_.prepare(document_->rest().triangles, *shown);
+}
+
 float EditorApp::panel_fraction() const {
   const auto extent = target_->extent();
   return extent.width > 0 ? std::min(kPanelWidth * ImGui::GetIO().DisplayFramebufferScale.x / static_cast<float>(extent.width), 0.9f) : 0.0f;
