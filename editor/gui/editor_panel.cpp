@@ -3,6 +3,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include <cstdio>
+
 namespace hdeform::cli::gui {
 
 void EditorApp::draw_panel() {
@@ -271,14 +273,21 @@ void EditorApp::draw_dialogs() {
                           : load_.running() ? load_.seconds()
                                         : (build_started_ != Clock::time_point{} ? seconds_since(build_started_) : 0.0);
   if (busy && busy_for > kProgressDelay) {
-    const ImVec2 size = ImGui::GetIO().DisplaySize;
-    ImGui::SetNextWindowPos(ImVec2(size.x * 0.5f + kPanelWidth * 0.5f, size.y * 0.5f), ImGuiCond_Always, ImVec2(0.5f, 0.5f));
-    ImGui::Begin("Working", nullptr, ImGuiWindowFlags_NoDecoration | ImGuiWindowFlags_AlwaysAutoResize | ImGuiWindowFlags_NoInputs);
     const char* spinner = "|/-\\";
     const std::string what = transfer_work ? transfer_work->first
                              : load_.running() ? load_.what()
                                            : document_->solver_message();
-    ImGui::Text("%c %s  (%.1f s)", spinner[static_cast<int>(busy_for * 8) % 4], what.c_str(), busy_for);
+    char line[512];
+    std::snprintf(line, sizeof line, "%c %s  (%.1f s)", spinner[static_cast<int>(busy_for * 8) % 4], what.c_str(), busy_for);
+    // Sized for this frame's line: an auto-sized window fits the line of the frame before, and
+    // while a large mesh is set up a frame comes once a second, so a longer line showed cut off.
+    const ImVec2 padding = ImGui::GetStyle().WindowPadding;
+    const ImVec2 text = ImGui::CalcTextSize(line);
+    const ImVec2 size = ImGui::GetIO().DisplaySize;
+    ImGui::SetNextWindowSize(ImVec2(text.x + 2.0f * padding.x, text.y + 2.0f * padding.y), ImGuiCond_Always);
+    ImGui::SetNextWindowPos(ImVec2(size.x * 0.5f + kPanelWidth * 0.5f, size.y * 0.5f), ImGuiCond_Always, ImVec2(0.5f, 0.5f));
+    ImGui::Begin("Working", nullptr, ImGuiWindowFlags_NoDecoration | ImGuiWindowFlags_NoInputs);
+    ImGui::TextUnformatted(line);
     ImGui::End();
   }
   if (restore_offer_) {
