@@ -2,6 +2,7 @@
 #include <metis.h>
 
 #include <Eigen/OrderingMethods>
+#include <mutex>
 #include <numeric>
 #include <stdexcept>
 #include <string>
@@ -44,11 +45,17 @@ std::vector<int> nested_dissection_ranks(const Eigen::SparseMatrix<double>& matr
   idx_t options[METIS_NOPTIONS];
   METIS_SetDefaultOptions(options);
   options[METIS_OPTION_NUMBERING] = 0;
-  // METIS seeds the C library's rand() with this and draws from it: the same order every time,
-  // unless another thread of the process calls rand() meanwhile (hdeform never does).
+  // METIS seeds the C library's rand() with this and draws from it: the same order every time
+  // (hdeform itself never calls rand()).
   options[METIS_OPTION_SEED] = 1;
   // METIS gives the order (the unknown eliminated at each step) and its inverse, the ranks.
   std::vector<idx_t> order(static_cast<std::size_t>(n));
+  // One call at a time: each draws from the process's one rand() (two at once would interleave
+  // their draws, and the orders would depend on timing), and each installs METIS's handler for
+  // SIGTERM and SIGABRT and puts back the one it found, so two overlapping calls could leave
+  // METIS's in place for good.
+  static std::mutex one_at_a_time;
+  const std::lock_guard lock(one_at_a_time);
   const int status = METIS_NodeND(&n, first.data(), neighbours.data(), nullptr, options, order.data(), rank.data());
   if (status == METIS_ERROR_MEMORY) throw std::bad_alloc();
   if (status != METIS_OK) throw std::runtime_error("METIS nested dissection failed (status " + std::to_string(status) + ")");
