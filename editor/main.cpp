@@ -6,6 +6,7 @@
 
 #include "commands/batch_commands.h"
 #include "commands/cli_support.h"
+#include "commands/termination_signals.h"
 #include "hdeform/errors.h"
 #ifdef HDEFORM_WITH_ENGINE
 #include "hdeform/engine/vulkan_context.h"
@@ -38,6 +39,7 @@ constexpr int kExitInternal = 3;  // an exception no check anticipated: a bug to
 
 int main(int argc, char** argv) {
   using namespace hdeform;
+  cli::watch_termination_signals();  // before any thread starts
   CLI::App app{"hdeform: harmonic-guided surface deformation (Zayer, Rössl, Karni, Seidel 2005)"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "hdeform 0.1.0");

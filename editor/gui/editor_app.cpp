@@ -3,35 +3,22 @@
 
 #include <nlohmann/json.hpp>
 
+#include "commands/termination_signals.h"
+
 namespace hdeform::cli::gui {
 
 namespace {
 
 // SIGTERM, SIGINT and SIGHUP ask the editor to write its recovery file and quit: the next start
-// offers it. The handler only records the signal; the frame loop (which wakes at least every
-// 0.25 s) acts on it.
-volatile std::sig_atomic_t quit_signal = 0;
-extern "C" void record_quit_signal(int signal) { quit_signal = signal; }
-
+// offers it. They are taken by a thread of their own (termination_signals.h), which wakes the
+// frame loop; it acts on them.
 class QuitSignals {
  public:
-  QuitSignals() {
-    quit_signal = 0;
-    struct sigaction action {};
-    action.sa_handler = record_quit_signal;
-    sigemptyset(&action.sa_mask);
-    for (std::size_t k = 0; k < kSignals.size(); ++k) sigaction(kSignals[k], &action, &previous_[k]);
-  }
-  ~QuitSignals() {
-    for (std::size_t k = 0; k < kSignals.size(); ++k) sigaction(kSignals[k], &previous_[k], nullptr);
-  }
+  QuitSignals() { claim_termination_signals([] { glfwPostEmptyEvent(); }); }
+  ~QuitSignals() { release_termination_signals(); }
   QuitSignals(const QuitSignals&) = delete;
   QuitSignals& operator=(const QuitSignals&) = delete;
-  static int received() { return quit_signal; }
-
- private:
-  static constexpr std::array<int, 3> kSignals{SIGTERM, SIGINT, SIGHUP};
-  std::array<struct sigaction, 3> previous_{};
+  static int received() { return termination_signal(); }
 };
 
 }  // namespace
