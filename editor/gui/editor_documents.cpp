@@ -281,8 +281,11 @@ void EditorApp::finish_proxy() {
 }
 
 void EditorApp::prepare_picking() {
-  // Once the cores are free of the proxy and the solver's set-up, so as not to slow them.
-  if (!document_ || picker_.prepared() || proxy_task_.running() || document_->solver_state() == Document::SolverState::Building) return;
+  // Once the cores are free of the proxy, the solver's set-up and a drag or its refinement, so as
+  // not to slow them.
+  if (!document_ || picker_.prepared() || proxy_task_.running() || dragging_ || benchmark_) return;
+  const auto state = document_->solver_state();
+  if (state == Document::SolverState::Building || (state == Document::SolverState::Ready && !document_->settled())) return;
   const engine::GeometrySnapshot* shown = exchange_->acquire();
   if (shown != nullptr && !shown->only_vertices) picker_.prepare(document_->rest().triangles, *shown);
 }
