@@ -287,6 +287,23 @@ TEST_F(DocumentTest, RestoredWorkStaysUnsavedUntilSaved) {
   EXPECT_FALSE(document->modified());
 }
 
+// A save is written on a thread of its own: the state it wrote is saved only if it is still the
+// state when the files are done (a key pressed in the frame of Ctrl+S may have changed it).
+TEST_F(DocumentTest, ASaveMarksSavedOnlyTheStateItWrote) {
+  document->paint(shape.demo_constraints.fixed, cli::Layer::Fixed, false);
+  document->commit();
+  const cli::Session written = document->session();
+  document->paint(shape.demo_constraints.handles[0], cli::Layer::Handle, false);
+  document->commit();
+  document->mark_saved(written);
+  EXPECT_TRUE(document->modified()) << "the handle painted while the save was written is not in it";
+  ASSERT_TRUE(document->undo());
+  document->mark_saved(written);
+  EXPECT_FALSE(document->modified());
+  ASSERT_TRUE(document->redo());
+  EXPECT_TRUE(document->modified());
+}
+
 // A value typed into the panel is applied as the user types, and committed when the field is
 // left; undo and redo before that must neither drop it nor bring back an older pose.
 TEST_F(DocumentTest, AnUncommittedChangeIsNeverLostToUndoOrRedo) {

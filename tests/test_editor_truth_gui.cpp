@@ -231,6 +231,24 @@ TEST_F(ShownShapeGui, OpeningOverUnsavedEditsAsksFirst) {
   quit(editor);
 }
 
+// A save is written on a thread of its own (a scan's OBJ takes seconds) while the input that came
+// after Ctrl+S waits: the file holds the state at Ctrl+S, what came next is neither lost nor
+// counted as saved.
+TEST_F(ShownShapeGui, InputAfterASaveIsKeptAndNotCountedAsSaved) {
+  Editor editor(cylinder_arguments());
+  ASSERT_NO_FATAL_FAILURE(until_ready(editor));
+  press("g");
+  drag_and_settle(editor, Eigen::Vector2f::Zero(), Eigen::Vector2f(100.0f, 0.0f), 8);
+  const auto before = editor.event_count();
+  xdotool("key ctrl+s key 0");  // save, and at once reset the handle
+  const json saved = editor.wait_for("saved", 60s, before);
+  ASSERT_FALSE(saved.is_null());
+  EXPECT_FALSE(cli::read_session(saved["session"].get<std::string>()).current.handles.at(0).transform.shift.isZero()) << "the save holds the moved handle";
+  ASSERT_TRUE(recovery_holding(dir.file("recovery.json"), [](const cli::Session& s) { return s.current.handles.at(0).transform.shift.isZero(); }))
+      << "the reset after the save was lost";
+  quit_discarding_changes(editor);  // asks first: the reset is not saved
+}
+
 // A save that cannot be written (a folder the user may not write) opens a dialog with the reason,
 // says so as an `error` event, writes nothing, and keeps the edits. Run as an unprivileged user:
 // root writes anywhere.

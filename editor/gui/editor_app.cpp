@@ -35,7 +35,7 @@ int EditorApp::run() {
       quit_on_signal(QuitSignals::received());
       break;
     }
-    const bool busy = !input_.empty() || dragging_ || load_.running() || benchmark_ || screenshot_requested_ || (transfer_ && transfer_->busy()) ||
+    const bool busy = (!input_.empty() && !saving()) || dragging_ || load_.running() || benchmark_ || screenshot_requested_ || (transfer_ && transfer_->busy()) ||
                       (document_ && document_->last_published_request() != shown_tag_);
     // A set-up in progress only changes the panel's progress line, which a frame a second shows
     // well enough. Polling drew frame after frame instead, and on a CPU device each frame of a
@@ -215,6 +215,7 @@ void EditorApp::shutdown() {
   document_.reset();  // stops its threads before the publisher goes
   load_.abandon();
   proxy_task_.abandon();  // its end wakes the window system: done before that goes
+  save_task_.abandon();   // the same (a save being written is finished first)
   publisher_.reset();
   if (imgui_vulkan_started_) ImGui_ImplVulkan_Shutdown();
   if (imgui_started_) {
@@ -281,7 +282,9 @@ std::uint64_t EditorApp::post_pending_solve() {
 }
 
 void EditorApp::step() {
-  const std::vector<InputEvent> events = input_.take_frame();
+  finish_save();
+  // While a save is written, input waits in its queue: nothing may change what is being saved.
+  const std::vector<InputEvent> events = saving() ? std::vector<InputEvent>{} : input_.take_frame();
   frame_keys_.clear();
   frame_pointer_path_.clear();
   for (const InputEvent& event : events) {
@@ -291,7 +294,7 @@ void EditorApp::step() {
   finish_load();
   finish_proxy();
   prepare_picking();
-  if (!dropped_paths_.empty()) {
+  if (!dropped_paths_.empty() && !saving()) {
     if (mode_ == Mode::Transfer) transfer_->drop(dropped_paths_, ImGui::GetIO().MousePos);
     else open_path(dropped_paths_.front());
     dropped_paths_.clear();

@@ -338,7 +338,11 @@ class EditorApp {
   // says so meanwhile). A failure opens the "Could not save" dialog.
   void save(const std::string& path);
   void finish_pending_save();
-  bool write_save(const std::string& path);
+  // The files are written on a thread of its own (a scan's OBJ takes seconds) while the window
+  // shows the progress; input waits in its queue meanwhile, so nothing changes what is saved.
+  void start_save(const std::string& path);
+  void finish_save();
+  bool saving() const { return save_task_.running(); }
   // Where Save writes unless --output or Save as said otherwise: the folder of the last save, else
   // the working folder; never silently beside the input, which may be read-only or shared.
   std::string default_output_path() const;
@@ -506,6 +510,9 @@ class EditorApp {
   std::optional<PendingAction> asked_;       // the unsaved-changes question is open for it
   std::optional<PendingAction> after_save_;  // runs once the save it waits for is written
   std::optional<std::string> pending_save_;  // a save waiting for the shape to settle
+  BackgroundTask<std::string> save_task_;     // writing a save; its result is the positions' digest
+  std::string saving_path_;
+  Session saving_session_;  // what the save being written holds
   std::string save_failure_;                 // shown in the "Could not save" dialog until dismissed
   std::filesystem::path save_folder_;        // of the last save ("": none yet)
   bool quit_ = false;

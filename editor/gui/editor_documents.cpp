@@ -475,33 +475,44 @@ void EditorApp::save(const std::string& path) {
 }
 
 void EditorApp::finish_pending_save() {
-  if (!pending_save_ || !document_ || !document_->settled()) return;
-  const std::string path = *std::exchange(pending_save_, std::nullopt);
-  if (write_save(path) && after_save_) run_action(*std::exchange(after_save_, std::nullopt));
-  after_save_.reset();
+  if (!pending_save_ || !document_ || !document_->settled() || saving()) return;
+  start_save(*std::exchange(pending_save_, std::nullopt));
 }
 
-bool EditorApp::write_save(const std::string& path) {
-  try {
-    // Settled: the pipeline's last answer, the shape on screen.
-    const Eigen::MatrixXd result = document_->result();
-    const Session session = document_->session();
-    write_mesh(path, Mesh{result, document_->rest().triangles});
+void EditorApp::start_save(const std::string& path) {
+  const std::string name = std::filesystem::path(path).filename().string();
+  status_ = "Saving " + name + "...";
+  saving_path_ = path;
+  saving_session_ = document_->session();
+  // Settled: the pipeline's last answer, the shape on screen.
+  save_task_.start("Saving " + name, [mesh = Mesh{document_->result(), document_->rest().triangles}, session = saving_session_, path] {
+    const trace::Scope traced("save", "io");
+    write_mesh(path, mesh);
     write_session(session_path_for(path), session);
-    document_->mark_saved();
-    output_path_ = path;
-    save_folder_ = std::filesystem::absolute(path).parent_path();
-    // File names only: a long path wraps the footer over the panel's controls.
-    status_ = "Saved " + std::filesystem::path(path).filename().string() + " and " + std::filesystem::path(session_path_for(path)).filename().string();
-    error_message_.clear();
-    print_json_line({{"event", "saved"}, {"obj", path}, {"session", session_path_for(path)}, {"positions_digest", positions_digest(result)}});
-    return true;
-  } catch (const std::exception& error) {
-    save_failure_ = error.what();
+    return positions_digest(mesh.positions);
+  }, [] { glfwPostEmptyEvent(); });
+}
+
+void EditorApp::finish_save() {
+  if (!save_task_.done()) return;
+  auto outcome = save_task_.take();
+  const std::string path = std::exchange(saving_path_, {});
+  if (!outcome.result) {
+    save_failure_ = outcome.error;
     error_message_ = "Not saved: " + save_failure_;
+    status_.clear();
     print_json_line({{"event", "error"}, {"message", error_message_}});
-    return false;
+    after_save_.reset();
+    return;
   }
+  if (document_) document_->mark_saved(saving_session_);
+  output_path_ = path;
+  save_folder_ = std::filesystem::absolute(path).parent_path();
+  // File names only: a long path wraps the footer over the panel's controls.
+  status_ = "Saved " + std::filesystem::path(path).filename().string() + " and " + std::filesystem::path(session_path_for(path)).filename().string();
+  error_message_.clear();
+  print_json_line({{"event", "saved"}, {"obj", path}, {"session", session_path_for(path)}, {"positions_digest", *outcome.result}});
+  if (after_save_) run_action(*std::exchange(after_save_, std::nullopt));
 }
 
 void EditorApp::quit_on_signal(int signal) {

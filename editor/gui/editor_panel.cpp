@@ -268,13 +268,15 @@ void EditorApp::draw_dialogs() {
     ImGui::End();
   }
   const auto transfer_work = transfer_->work();
-  const bool busy = load_.running() || (document_ && document_->solver_state() == Document::SolverState::Building) || transfer_work;
-  const double busy_for = transfer_work ? transfer_work->second
+  const bool busy = saving() || load_.running() || (document_ && document_->solver_state() == Document::SolverState::Building) || transfer_work;
+  const double busy_for = saving()        ? save_task_.seconds()
+                          : transfer_work ? transfer_work->second
                           : load_.running() ? load_.seconds()
                                         : (build_started_ != Clock::time_point{} ? seconds_since(build_started_) : 0.0);
   if (busy && busy_for > kProgressDelay) {
     const char* spinner = "|/-\\";
-    const std::string what = transfer_work ? transfer_work->first
+    const std::string what = saving()        ? save_task_.what()
+                             : transfer_work ? transfer_work->first
                              : load_.running() ? load_.what()
                                            : document_->solver_message();
     char line[512];

@@ -323,6 +323,9 @@ bool Document::redo() {
 
 bool Document::modified() const { return history_index_ != saved_index_; }
 void Document::mark_saved() { saved_index_ = history_index_; }
+void Document::mark_saved(const Session& written) {
+  if (session() == written) mark_saved();
+}
 void Document::mark_unsaved() { saved_index_ = std::numeric_limits<std::size_t>::max(); }
 
 Document::SolverState Document::solver_state() const {

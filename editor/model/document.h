@@ -99,6 +99,9 @@ class Document {
   // Until the next save, modified() whatever undo does (a state restored after a crash).
   void mark_unsaved();
   void mark_saved();
+  // After a save of `written` finished: saved, if that is still the state (a key pressed in the
+  // frame of Ctrl+S may have changed it while the files were written).
+  void mark_saved(const Session& written);
 
   // Solver state, for the UI.
   enum class SolverState { NoHandle, Building, Ready, Failed };
