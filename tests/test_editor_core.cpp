@@ -287,6 +287,21 @@ TEST_F(DocumentTest, RestoredWorkStaysUnsavedUntilSaved) {
   EXPECT_FALSE(document->modified());
 }
 
+// While a stroke is painted its selection is not final: no set-up starts until it ends (at 13M
+// triangles a set-up takes 25 s and cannot be stopped).
+TEST_F(DocumentTest, NoSetUpStartsWhileAStrokeIsPainted) {
+  document->paint(shape.demo_constraints.fixed, cli::Layer::Fixed, false);
+  document->hold_set_up(true);
+  document->paint(shape.demo_constraints.handles[0], cli::Layer::Handle, false);
+  document->poll();
+  EXPECT_EQ(document->solver_state(), cli::Document::SolverState::NoHandle);
+  document->hold_set_up(false);
+  document->poll();
+  EXPECT_EQ(document->solver_state(), cli::Document::SolverState::Building);
+  document->wait_until_ready();
+  EXPECT_EQ(document->solver_state(), cli::Document::SolverState::Ready);
+}
+
 // A save is written on a thread of its own: the state it wrote is saved only if it is still the
 // state when the files are done (a key pressed in the frame of Ctrl+S may have changed it).
 TEST_F(DocumentTest, ASaveMarksSavedOnlyTheStateItWrote) {

@@ -303,6 +303,7 @@ void EditorApp::step() {
   write_transfer_recovery();
   if (document_) {
     const auto before = document_->solver_state();
+    document_->hold_set_up(dragging_ && is_paint_tool(tools_.tool));
     document_->poll();
     // On a CPU device (latch pacing) iterations would take the cores the frame needs: they
     // wait until the input rests (buddha-206k on lavapipe: 17.7 fps and 99 ms input to screen

@@ -450,7 +450,7 @@ void Document::install_build() {
 
 void Document::poll() {
   if (build_ && build_->task.done()) install_build();
-  if (build_) return;
+  if (build_ || hold_set_up_) return;
   const EditConstraints constraints = current_stage().constraints();
   if (constraints.handles.empty()) {
     stop_pipeline();
@@ -497,6 +497,7 @@ bool Document::settled() const {
 }
 
 void Document::wait_until_ready() {
+  hold_set_up_ = false;  // the answer is wanted now
   for (;;) {
     poll();
     if (!build_) return;

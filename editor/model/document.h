@@ -109,6 +109,10 @@ class Document {
   std::string solver_message() const;  // the build's current stage, or the failure
   // Call each frame on the UI thread: installs a finished rebuild, starts one when needed.
   void poll();
+  // While a stroke is being painted its selection is not final: poll() then starts no set-up
+  // (it still installs one that finished). At 13M triangles a set-up takes 25 s and cannot be
+  // stopped, so one started at a stroke's first frame held up the stroke's own by as long.
+  void hold_set_up(bool hold) { hold_set_up_ = hold; }
   // The harmonic field of the ready deformer, or nullptr.
   const Eigen::VectorXd* field() const;
   const DeformerTimings* setup_timings() const;
@@ -249,6 +253,7 @@ class Document {
   std::vector<Snapshot> history_;
   std::size_t history_index_ = 0;
   std::size_t saved_index_ = 0;
+  bool hold_set_up_ = false;
   std::string last_history_step_;
 };
 
