@@ -302,6 +302,26 @@ TEST_F(DocumentTest, NoSetUpStartsWhileAStrokeIsPainted) {
   EXPECT_EQ(document->solver_state(), cli::Document::SolverState::Ready);
 }
 
+// A set-up overtaken by a new selection is not installed, but what it computed for the rest shape
+// alone (the base mesh of a scan: most of its time) serves the next one.
+TEST_F(DocumentTest, AStaleSetUpLeavesItsOperatorsToTheNext) {
+  const auto& handle = shape.demo_constraints.handles[0];
+  document->paint(shape.demo_constraints.fixed, cli::Layer::Fixed, false);
+  document->paint(std::span(handle.data(), handle.size() / 2), cli::Layer::Handle, false);
+  document->poll();
+  ASSERT_EQ(document->solver_state(), cli::Document::SolverState::Building);
+  EXPECT_FALSE(document->set_up_reuses_operators()) << "the first set-up on this mesh";
+  document->paint(handle, cli::Layer::Handle, false);  // the selection changes while it runs
+  while (document->solver_state() == cli::Document::SolverState::Building && !document->set_up_reuses_operators()) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    document->poll();
+  }
+  EXPECT_TRUE(document->set_up_reuses_operators()) << "the second set-up computed the operators again";
+  document->wait_until_ready();
+  EXPECT_EQ(document->solver_state(), cli::Document::SolverState::Ready);
+  EXPECT_EQ(document->handle_size(0), handle.size());
+}
+
 // A save is written on a thread of its own: the state it wrote is saved only if it is still the
 // state when the files are done (a key pressed in the frame of Ctrl+S may have changed it).
 TEST_F(DocumentTest, ASaveMarksSavedOnlyTheStateItWrote) {

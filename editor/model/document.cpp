@@ -386,11 +386,21 @@ void Document::start_build() {
   });
 }
 
+bool Document::set_up_reuses_operators() const { return build_ && build_->operators; }
+
 void Document::install_build() {
   auto outcome = build_->task.take();
   std::unique_ptr<Build> build = std::move(build_);
   const bool still_current = same_constraints(build->constraints, current_stage().constraints()) && build->rest == rest_;
-  if (!still_current) return;  // the next poll starts a build for the new constraints
+  if (!still_current) {
+    // The next poll starts a build for the new constraints. What depends on the rest shape alone
+    // (at 13M triangles the base mesh, 22 s of the set-up's 25) serves it as well.
+    if (outcome.result && build->rest == rest_) {
+      operators_ = (*outcome.result)->operators();
+      operators_rest_ = build->rest;
+    }
+    return;
+  }
   if (outcome.exception) {
     try {
       std::rethrow_exception(outcome.exception);

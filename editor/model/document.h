@@ -113,6 +113,9 @@ class Document {
   // (it still installs one that finished). At 13M triangles a set-up takes 25 s and cannot be
   // stopped, so one started at a stroke's first frame held up the stroke's own by as long.
   void hold_set_up(bool hold) { hold_set_up_ = hold; }
+  // The set-up in progress takes the rest shape's operators (weights, Laplacian and order, the
+  // base mesh) from an earlier one instead of computing them.
+  bool set_up_reuses_operators() const;
   // The harmonic field of the ready deformer, or nullptr.
   const Eigen::VectorXd* field() const;
   const DeformerTimings* setup_timings() const;
