@@ -296,6 +296,34 @@ TEST_F(ShownShapeGui, ASaveIntoAReadOnlyFolderOpensADialogAndWritesNothing) {
   quit_discarding_changes(*editor);
 }
 
+// Saving when the set-up failed (a handle with no fixed vertex): there is no result to write, and
+// the dialog says why; the editor goes on.
+TEST_F(EditorGui, SavingAfterAFailedSetUpSaysWhyAndGoesOn) {
+  dir.write("handle.txt", "0\n1\n2\n");
+  auto arguments = editor_arguments("no");
+  arguments.insert(arguments.end(), {"--handle", dir.file("handle.txt").string()});
+  Editor editor(arguments);
+  editor.wait_for("opened");
+  ASSERT_NO_FATAL_FAILURE(find_window());
+  const auto deadline = Clock::now() + 60s;
+  const auto failed = [&] {
+    for (const json& event : editor.events_named("solver")) {
+      if (event.value("state", "") == "failed") return true;
+    }
+    return false;
+  };
+  while (!failed() && Clock::now() < deadline) std::this_thread::sleep_for(100ms);
+  ASSERT_TRUE(failed()) << "the set-up should fail: the handle has no fixed vertex";
+  const auto before = editor.event_count();
+  press("ctrl+s");
+  const json dialog = editor.wait_for("dialog", 30s, before);
+  EXPECT_EQ(dialog.value("title", ""), "Could not save");
+  EXPECT_NE(dialog.value("message", "").find("no fixed vertex"), std::string::npos) << dialog.dump();
+  EXPECT_FALSE(std::filesystem::exists(dir.file("saved.obj")));
+  press("Escape");
+  quit(editor);  // nothing was edited
+}
+
 // A vertex list given with a mesh that cannot be used: the mesh opens anyway, without the lists,
 // and the window says which file and line, and why.
 TEST_F(EditorGui, ABadFixedListLeavesTheMeshOpenAndSaysWhy) {

@@ -342,6 +342,7 @@ class EditorApp {
   // shows the progress; input waits in its queue meanwhile, so nothing changes what is saved.
   void start_save(const std::string& path);
   void finish_save();
+  void fail_save(const std::string& why);  // the "Could not save" dialog, an `error` event
   bool saving() const { return save_task_.running(); }
   // Where Save writes unless --output or Save as said otherwise: the folder of the last save, else
   // the working folder; never silently beside the input, which may be read-only or shared.

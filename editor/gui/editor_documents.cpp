@@ -480,12 +480,18 @@ void EditorApp::finish_pending_save() {
 }
 
 void EditorApp::start_save(const std::string& path) {
+  Mesh result;
+  try {
+    // Settled: the pipeline's last answer, the shape on screen (a failed set-up has none).
+    result = Mesh{document_->result(), document_->rest().triangles};
+  } catch (const std::exception& error) {
+    return fail_save(error.what());
+  }
   const std::string name = std::filesystem::path(path).filename().string();
   status_ = "Saving " + name + "...";
   saving_path_ = path;
   saving_session_ = document_->session();
-  // Settled: the pipeline's last answer, the shape on screen.
-  save_task_.start("Saving " + name, [mesh = Mesh{document_->result(), document_->rest().triangles}, session = saving_session_, path] {
+  save_task_.start("Saving " + name, [mesh = std::move(result), session = saving_session_, path] {
     const trace::Scope traced("save", "io");
     write_mesh(path, mesh);
     write_session(session_path_for(path), session);
@@ -493,18 +499,19 @@ void EditorApp::start_save(const std::string& path) {
   }, [] { glfwPostEmptyEvent(); });
 }
 
+void EditorApp::fail_save(const std::string& why) {
+  save_failure_ = why;
+  error_message_ = "Not saved: " + save_failure_;
+  status_.clear();
+  print_json_line({{"event", "error"}, {"message", error_message_}});
+  after_save_.reset();
+}
+
 void EditorApp::finish_save() {
   if (!save_task_.done()) return;
   auto outcome = save_task_.take();
   const std::string path = std::exchange(saving_path_, {});
-  if (!outcome.result) {
-    save_failure_ = outcome.error;
-    error_message_ = "Not saved: " + save_failure_;
-    status_.clear();
-    print_json_line({{"event", "error"}, {"message", error_message_}});
-    after_save_.reset();
-    return;
-  }
+  if (!outcome.result) return fail_save(outcome.error);
   if (document_) document_->mark_saved(saving_session_);
   output_path_ = path;
   save_folder_ = std::filesystem::absolute(path).parent_path();
