@@ -14,9 +14,13 @@ namespace hdeform::cli {
 namespace {
 
 constexpr std::array<int, 3> kSignals{SIGTERM, SIGINT, SIGHUP};
-std::atomic<bool> claimed{false};
+// The claim and its wake function: the watching thread holds the mutex while it calls `wake`, so
+// that once release_termination_signals() returns, no wake runs or will run (the editor's wakes
+// its window system, which it shuts down after the release).
+std::mutex claim_mutex;
+bool claimed = false;               // with claim_mutex
+void (*wake_claimant)() = nullptr;  // with claim_mutex
 std::atomic<int> received{0};
-std::atomic<void (*)()> wake_claimant{nullptr};
 
 sigset_t termination_set() {
   sigset_t set;
@@ -44,10 +48,11 @@ void watch(sigset_t set) {
   for (;;) {
     int signal = 0;
     if (sigwait(&set, &signal) != 0) continue;
-    if (!claimed.load()) end_as_by_default(signal);
+    const std::lock_guard lock(claim_mutex);
+    if (!claimed) end_as_by_default(signal);
     int none = 0;
     received.compare_exchange_strong(none, signal);
-    if (const auto wake = wake_claimant.load()) wake();
+    if (wake_claimant != nullptr) wake_claimant();
   }
 }
 
@@ -68,12 +73,14 @@ void watch_termination_signals() {
 
 void claim_termination_signals(void (*wake)()) {
   watch_termination_signals();  // where main() did not
+  const std::lock_guard lock(claim_mutex);
   received = 0;
   wake_claimant = wake;
   claimed = true;
 }
 
 void release_termination_signals() {
+  const std::lock_guard lock(claim_mutex);
   claimed = false;
   wake_claimant = nullptr;
 }
