@@ -297,6 +297,12 @@ class EditorApp {
   void draw_open_failure();
   // A save that failed: the reason, and Save as.
   void draw_save_failure();
+  // Where the session solves (Solve on, Base vertices, Single-precision factor), and the question
+  // asked before a scan is solved on every vertex.
+  void draw_solve_choice();
+  void draw_exact_confirmation();
+  std::string solve_choice_text(const Document::SolveChoice& choice) const;
+  void change_solve_choice(const Document::SolveChoice& choice);
 
   // ---- actions ------------------------------------------------------------------------------------
 
@@ -508,6 +514,9 @@ class EditorApp {
   std::string after_open_note_;                // said in the status line once the next document opens
   bool open_dialog_ = false;
   bool save_dialog_ = false;
+  std::optional<Document::SolveChoice> confirm_exact_;  // the question before solving on every vertex is open
+  int base_vertices_field_ = 0;                          // the Base vertices field while it is typed in
+  bool base_vertices_editing_ = false;
   std::optional<PendingAction> asked_;       // the unsaved-changes question is open for it
   std::optional<PendingAction> after_save_;  // runs once the save it waits for is written
   std::optional<std::string> pending_save_;  // a save waiting for the shape to settle

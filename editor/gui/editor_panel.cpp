@@ -156,18 +156,7 @@ void EditorApp::draw_controls() {
     solver_options.backend = backends[static_cast<std::size_t>(backend)];
     document_->set_options(solver_options);
   }
-  if (document_->options().resolution == Resolution::Multiresolution) {
-    const Eigen::Index base = document_->solved_vertex_count();
-    ImGui::TextWrapped("Multiresolution: solved on a base of %ld of the %ld vertices", static_cast<long>(base > 0 ? base : document_->options().base_vertices),
-                       static_cast<long>(document_->vertex_count()));
-    if (ImGui::IsItemHovered()) {
-      ImGui::SetTooltip("Painting and picking use every vertex; the update and the refinement solve on a simplified base mesh,\n"
-                        "and the fine detail follows it in local frames. Fixed and handle vertices are exact. Saved with the\n"
-                        "session, so `hdeform edit --session` solves alike; `hdeform gui --exact` solves on every vertex.");
-    }
-  } else {
-    ImGui::Text("Exact: solved on all %ld vertices", static_cast<long>(document_->vertex_count()));
-  }
+  draw_solve_choice();
   if (document_->factor_precision() == FactorPrecision::Single) {
     const auto refinement = document_->factor_refinement();
     if (refinement.solves > 0) {
@@ -225,6 +214,96 @@ void EditorApp::draw_controls() {
     ImGui::SetTooltip("On: a frame waits up to %.0f ms for the solve of the newest input (best on a CPU device).\n"
                       "Off: frames never wait; each shows the newest finished solve.", kMaxLatchMs);
   }
+}
+
+void EditorApp::draw_solve_choice() {
+  const Document::SolveChoice now = document_->solve_choice();
+  const bool changeable = document_->can_change_solve_choice();
+  const char* kNotChangeable = "The applied stages were solved this way; solving elsewhere would change the rest shape.\n"
+                               "Undo the Apply to choose again.";
+  ImGui::BeginDisabled(!changeable);
+  int site = now.resolution == Resolution::Multiresolution ? 0 : 1;
+  const char* sites[] = {"a base mesh", "every vertex"};
+  if (ImGui::Combo("Solve on", &site, sites, 2) && (site == 0) != (now.resolution == Resolution::Multiresolution)) {
+    Document::SolveChoice choice = now;
+    choice.resolution = site == 0 ? Resolution::Multiresolution : Resolution::Exact;
+    // Every vertex of a scan is a much larger solve: asked first.
+    if (choice.resolution == Resolution::Exact && document_->vertex_count() >= kMultiresolutionFrom) confirm_exact_ = choice;
+    else change_solve_choice(choice);
+  }
+  if (ImGui::IsItemHovered(ImGuiHoveredFlags_AllowWhenDisabled)) {
+    ImGui::SetTooltip("%s", changeable ? "A base mesh: the update and the refinement solve on a simplified mesh, and the fine detail\n"
+                                         "follows it in local frames (fixed and handle vertices stay exact). Every vertex: the paper's\n"
+                                         "solve on the whole mesh. Saved with the session; undoable."
+                                       : kNotChangeable);
+  }
+  if (now.resolution == Resolution::Multiresolution) {
+    if (!base_vertices_editing_) base_vertices_field_ = static_cast<int>(now.base_vertices);
+    ImGui::InputInt("Base vertices", &base_vertices_field_, 0, 0);
+    base_vertices_editing_ = ImGui::IsItemActive();
+    if (ImGui::IsItemDeactivatedAfterEdit()) {
+      Document::SolveChoice choice = now;
+      choice.base_vertices = std::clamp<Eigen::Index>(base_vertices_field_, 4, std::max<Eigen::Index>(4, document_->vertex_count()));
+      if (choice != now) change_solve_choice(choice);
+    }
+    const Eigen::Index base = document_->solved_vertex_count();
+    ImGui::TextWrapped("Solved on a base of %ld of the %ld vertices", static_cast<long>(base > 0 ? base : now.base_vertices),
+                       static_cast<long>(document_->vertex_count()));
+  } else {
+    ImGui::Text("Solved on all %ld vertices", static_cast<long>(document_->vertex_count()));
+  }
+  bool single = now.precision == FactorPrecision::Single;
+  if (ImGui::Checkbox("Single-precision factor", &single)) {
+    Document::SolveChoice choice = now;
+    choice.precision = single ? FactorPrecision::Single : FactorPrecision::Double;
+    change_solve_choice(choice);
+  }
+  if (ImGui::IsItemHovered(ImGuiHoveredFlags_AllowWhenDisabled)) {
+    ImGui::SetTooltip("%s", changeable ? "The factor is stored in single precision (half its memory); each solve is refined against the\n"
+                                         "double matrix until its residual is at double accuracy. Saved with the session; undoable."
+                                       : kNotChangeable);
+  }
+  ImGui::EndDisabled();
+}
+
+std::string EditorApp::solve_choice_text(const Document::SolveChoice& choice) const {
+  std::string text = choice.resolution == Resolution::Exact ? "solve on every vertex" : "solve on a base of " + std::to_string(choice.base_vertices) + " vertices";
+  if (choice.precision == FactorPrecision::Single) text += ", single-precision factor";
+  return text;
+}
+
+void EditorApp::change_solve_choice(const Document::SolveChoice& choice) {
+  const std::string what = solve_choice_text(choice);
+  finish_action(what, [&] { document_->set_solve_choice(choice); });
+  status_ = "Setting up to " + what + "; until then the drag goes on as before (Ctrl+Z goes back)";
+}
+
+void EditorApp::draw_exact_confirmation() {
+  constexpr const char* kTitle = "Solve on every vertex?";
+  if (confirm_exact_ && !ImGui::IsPopupOpen(kTitle)) {
+    ImGui::OpenPopup(kTitle);
+    print_json_line({{"event", "dialog"}, {"title", kTitle}});
+  }
+  if (!ImGui::BeginPopupModal(kTitle, nullptr, ImGuiWindowFlags_AlwaysAutoResize)) return;
+  const bool keys = !ImGui::IsWindowAppearing();
+  ImGui::PushTextWrapPos(ImGui::GetFontSize() * 36.0f);
+  ImGui::Text("The solve on all %ld vertices factors the whole mesh, where the base has %ld.", static_cast<long>(document_ ? document_->vertex_count() : 0),
+              static_cast<long>(document_ ? document_->solve_choice().base_vertices : 0));
+  ImGui::TextUnformatted("At this size its set-up takes many times longer and needs many times the memory, and each drag step is "
+                         "slower. Until it is ready the drag goes on with the base; Ctrl+Z goes back.");
+  ImGui::PopTextWrapPos();
+  std::optional<bool> answer;
+  if (ImGui::Button("Solve on every vertex (Enter)") || (keys && (pressed(GLFW_KEY_ENTER) || pressed(GLFW_KEY_KP_ENTER)))) answer = true;
+  ImGui::SameLine();
+  if (ImGui::Button("Cancel (Esc)") || (keys && pressed(GLFW_KEY_ESCAPE))) answer = false;
+  if (answer) {
+    ImGui::CloseCurrentPopup();
+    print_json_line({{"event", "dialog closed"}, {"title", kTitle}, {"choice", *answer ? "exact" : "cancel"}});
+    const Document::SolveChoice choice = *confirm_exact_;
+    confirm_exact_.reset();
+    if (*answer && document_ && document_->can_change_solve_choice()) change_solve_choice(choice);
+  }
+  ImGui::EndPopup();
 }
 
 void EditorApp::draw_pose_editor() {
@@ -302,6 +381,7 @@ void EditorApp::draw_dialogs() {
   if (const auto path = path_prompt("Open", open_dialog_, path_buffer_, pressed(GLFW_KEY_ESCAPE), recent_shown_)) open_path(*path);
   if (const auto path = path_prompt("Save as", save_dialog_, path_buffer_, pressed(GLFW_KEY_ESCAPE))) save(*path);
   draw_save_failure();
+  draw_exact_confirmation();
   if (asked_) {
     const UnsavedChoice choice =
         unsaved_prompt(asked_->describe(), unsaved_work(), dialog_keys());

@@ -16,11 +16,19 @@ bool same_constraints(const EditConstraints& a, const EditConstraints& b) {
   return a.fixed == b.fixed && a.handles == b.handles && a.region_of_interest == b.region_of_interest;
 }
 
+// Whether a set-up with `choice` can take `operators` (the Deformer checks the resolution, not the
+// base's size).
+bool operators_fit(const MeshOperators& operators, const Document::SolveChoice& choice) {
+  if (operators.resolution() != choice.resolution) return false;
+  return !operators.multiresolution || operators.multiresolution->requested_vertices == choice.base_vertices;
+}
+
 }  // namespace
 
 struct Document::Build {
   EditConstraints constraints;
   std::shared_ptr<const Mesh> rest;
+  SolveChoice choice;
   std::shared_ptr<const MeshOperators> operators;  // of `rest`, from the last set-up on it, or null
   std::mutex mutex;
   std::string stage;  // with mutex: the set-up's current stage, for the panel
@@ -295,15 +303,22 @@ void Document::commit(std::string what) {
 // A change not yet committed (a value still being typed, a field dragged) is what the user
 // sees: undo first records it, so that it can be redone, and so that it goes back to the step
 // before it rather than to an older one.
+void Document::restore(const Snapshot& snapshot) {
+  applied_ = snapshot.session.applied;
+  rest_ = snapshot.rest;
+  active_handle_ = snapshot.session.active_handle;
+  options_.resolution = snapshot.session.resolution;
+  options_.base_vertices = snapshot.session.base_vertices;
+  options_.precision = snapshot.session.precision.value_or(FactorPrecision::Double);
+  load_stage(snapshot.session.current);
+}
+
 bool Document::undo() {
   commit();
   if (!can_undo()) return false;
   last_history_step_ = history_[history_index_].what;
   const Snapshot& snapshot = history_[--history_index_];
-  applied_ = snapshot.session.applied;
-  rest_ = snapshot.rest;
-  active_handle_ = snapshot.session.active_handle;
-  load_stage(snapshot.session.current);
+  restore(snapshot);
   return true;
 }
 
@@ -314,10 +329,7 @@ bool Document::redo() {
   if (!can_redo()) return false;
   const Snapshot& snapshot = history_[++history_index_];
   last_history_step_ = snapshot.what;
-  applied_ = snapshot.session.applied;
-  rest_ = snapshot.rest;
-  active_handle_ = snapshot.session.active_handle;
-  load_stage(snapshot.session.current);
+  restore(snapshot);
   return true;
 }
 
@@ -364,6 +376,15 @@ void Document::set_options(const DeformerOptions& options) {
   failure_.clear();
 }
 
+void Document::set_solve_choice(const SolveChoice& choice) {
+  if (!can_change_solve_choice()) throw std::logic_error("Document: where a session with applied stages solves cannot change");
+  if (choice.resolution == Resolution::Automatic) throw std::invalid_argument("Document: a solve choice is Exact or Multiresolution");
+  if (choice.base_vertices < 4) throw std::invalid_argument("Document: a base mesh needs at least 4 vertices");
+  options_.resolution = choice.resolution;
+  options_.base_vertices = choice.base_vertices;
+  options_.precision = choice.precision;
+}
+
 void Document::stop_pipeline() {
   pipeline_.reset();  // waits for the update in flight
 }
@@ -372,8 +393,9 @@ void Document::start_build() {
   build_ = std::make_unique<Build>();
   build_->constraints = current_stage().constraints();
   build_->rest = rest_;
+  build_->choice = solve_choice();
   // A new selection on the same rest shape reuses its weights and Laplacian.
-  if (operators_rest_ == rest_) build_->operators = operators_;
+  if (operators_rest_ == rest_ && operators_ && operators_fit(*operators_, build_->choice)) build_->operators = operators_;
   Build* build = build_.get();
   DeformerOptions options = options_;
   options.prepare_refinement = refine_;  // set up with the rest, off the frame loop
@@ -391,7 +413,8 @@ bool Document::set_up_reuses_operators() const { return build_ && build_->operat
 void Document::install_build() {
   auto outcome = build_->task.take();
   std::unique_ptr<Build> build = std::move(build_);
-  const bool still_current = same_constraints(build->constraints, current_stage().constraints()) && build->rest == rest_;
+  const bool still_current =
+      same_constraints(build->constraints, current_stage().constraints()) && build->rest == rest_ && build->choice == solve_choice();
   if (!still_current) {
     // The next poll starts a build for the new constraints. What depends on the rest shape alone
     // (at 13M triangles the base mesh, 22 s of the set-up's 25) serves it as well.
@@ -413,6 +436,7 @@ void Document::install_build() {
     deformer_.reset();
     deformer_constraints_ = build->constraints;
     deformer_rest_ = rest_.get();
+    deformer_choice_ = build->choice;
     return;
   }
   failure_.clear();
@@ -422,6 +446,7 @@ void Document::install_build() {
   operators_rest_ = build->rest;
   deformer_constraints_ = build->constraints;
   deformer_rest_ = rest_.get();
+  deformer_choice_ = build->choice;
   request_base_ = last_request_;
   const std::uint64_t base = request_base_;
   pipeline_ = std::make_unique<UpdatePipeline>(*deformer_, [this, base](const UpdatePipeline::Result& result) {
@@ -468,10 +493,13 @@ void Document::poll() {
     failure_.clear();
     return;
   }
-  const bool up_to_date = same_constraints(constraints, deformer_constraints_) && deformer_rest_ == rest_.get();
-  if (up_to_date && (deformer_ || !failure_.empty())) return;
+  if (deformer_is_current(constraints) && (deformer_ || !failure_.empty())) return;
   failure_.clear();
   start_build();
+}
+
+bool Document::deformer_is_current(const EditConstraints& constraints) const {
+  return same_constraints(constraints, deformer_constraints_) && deformer_rest_ == rest_.get() && deformer_choice_ == solve_choice();
 }
 
 bool Document::previous_selection_answers(const EditStage& stage) const {
@@ -480,7 +508,7 @@ bool Document::previous_selection_answers(const EditStage& stage) const {
 
 bool Document::drags_previous_selection() const {
   const EditStage stage = current_stage();
-  return previous_selection_answers(stage) && !same_constraints(deformer_constraints_, stage.constraints());
+  return previous_selection_answers(stage) && !deformer_is_current(stage.constraints());
 }
 
 std::uint64_t Document::request_update(bool partial) {

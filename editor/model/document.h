@@ -129,7 +129,26 @@ class Document {
   std::vector<std::string> warnings() const;
   double last_update_ms() const { return last_update_ms_.load(); }
   const DeformerOptions& options() const { return options_; }
+  // The solver's other options (its backend); where the session solves stays as it is.
   void set_options(const DeformerOptions& options);
+
+  // Where the session solves: on every vertex or on a base of `base_vertices` (read for Exact
+  // too: the base a switch back to Multiresolution asks for), and how its factors are stored.
+  // Part of the state, so undoable and in the session; a change sets the solver up again, and
+  // until then the drag goes on with the set-up in place.
+  struct SolveChoice {
+    Resolution resolution = Resolution::Exact;
+    Eigen::Index base_vertices = kDefaultBaseVertices;
+    FactorPrecision precision = FactorPrecision::Double;
+    bool operator==(const SolveChoice&) const = default;
+  };
+  SolveChoice solve_choice() const { return {options_.resolution, options_.base_vertices, options_.precision}; }
+  // Only while no stage is applied: the applied stages were solved where the session says, and
+  // their replay elsewhere would give another rest shape.
+  bool can_change_solve_choice() const { return applied_.empty(); }
+  // Throws std::logic_error when !can_change_solve_choice(), std::invalid_argument for Automatic
+  // or a base of fewer than 4 vertices. Not committed (commit() names the step).
+  void set_solve_choice(const SolveChoice& choice);
 
   // As-rigid-as-possible refinement of the current stage (on for new sessions in the editor):
   // part of the state, so undoable and in the session. The pipeline refines after each update.
@@ -166,8 +185,8 @@ class Document {
   std::uint64_t request_update(bool partial = false);
   // The vertices a partial request needs (the proxy's, ascending); null: none, every request whole.
   void set_partial_vertices(std::shared_ptr<const std::vector<int>> vertices) { partial_vertices_ = std::move(vertices); }
-  // Whether a set-up for a changed selection is running while the previous selection's solver
-  // (same rest shape and number of handles) still answers the drag.
+  // Whether a set-up for a changed selection (or solve choice) is running while the previous
+  // selection's solver (same rest shape and number of handles) still answers the drag.
   bool drags_previous_selection() const;
   std::uint64_t last_published_request() const { return last_published_.load(); }
   // The positions for the current poses: the pipeline's final answer to them, the shape the
@@ -190,12 +209,15 @@ class Document {
 
   EditStage current_stage() const;
   void load_stage(const EditStage& stage);
+  void restore(const Snapshot& snapshot);
   void relabel(int vertex, int label);
   void refresh_pivot(int handle);
   std::vector<bool> members(Layer layer) const;
   void set_members(Layer layer, const std::vector<bool>& members);
   void start_build();
   void install_build();
+  // The deformer in place (or its failure) is for the current constraints, rest and solve choice.
+  bool deformer_is_current(const EditConstraints& constraints) const;
   // A set-up is running and the deformer in place can take `stage`'s poses (same rest shape, as
   // many non-empty handles).
   bool previous_selection_answers(const EditStage& stage) const;
@@ -228,6 +250,7 @@ class Document {
   std::unique_ptr<Deformer> deformer_;
   EditConstraints deformer_constraints_;
   const Mesh* deformer_rest_ = nullptr;
+  SolveChoice deformer_choice_;
   // The rest shape's weights and Laplacian, kept across selections (a stroke re-factors only).
   std::shared_ptr<const MeshOperators> operators_;
   std::shared_ptr<const Mesh> operators_rest_;
