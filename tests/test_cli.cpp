@@ -152,6 +152,10 @@ TEST_F(Cli, MultiresolutionOnTheCommandLineAndInASession) {
   EXPECT_EQ(overridden.exit_code, 2);
   EXPECT_TRUE(contains(overridden.err, "says where it solves")) << overridden.err;
   EXPECT_FALSE(std::filesystem::exists(path("x.obj")));
+  // The editor alike (before any window opens): its panel changes where a session solves.
+  const auto editor = run(dir, "gui --session " + path("multi.json") + " --exact");
+  EXPECT_EQ(editor.exit_code, 2);
+  EXPECT_TRUE(contains(editor.err, "Solve on")) << editor.err;
 }
 
 // --precision single: the report says so and counts the correction steps, the result is the

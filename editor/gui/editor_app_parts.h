@@ -301,7 +301,8 @@ class EditorApp {
   // asked before a scan is solved on every vertex.
   void draw_solve_choice();
   void draw_exact_confirmation();
-  std::string solve_choice_text(const Document::SolveChoice& choice) const;
+  // "every vertex", "a base of 150000 vertices", with ", single-precision factor" where so.
+  std::string solve_site_text(const Document::SolveChoice& choice) const;
   void change_solve_choice(const Document::SolveChoice& choice);
 
   // ---- actions ------------------------------------------------------------------------------------

@@ -174,7 +174,7 @@ void EditorApp::draw_controls() {
     case Document::SolverState::NoHandle: ImGui::TextWrapped("Paint a handle (3) to deform."); break;
     case Document::SolverState::Building:
       ImGui::TextWrapped("%s...", document_->solver_message().c_str());
-      if (document_->drags_previous_selection()) ImGui::TextDisabled("Dragging with the previous selection until then.");
+      if (document_->drags_previous_selection()) ImGui::TextDisabled("Dragging with the previous set-up until then.");
       break;
     case Document::SolverState::Failed: break;  // in the footer (solver_failure), always in view
     case Document::SolverState::Ready: break;
@@ -239,19 +239,21 @@ void EditorApp::draw_solve_choice() {
   }
   if (now.resolution == Resolution::Multiresolution) {
     if (!base_vertices_editing_) base_vertices_field_ = static_cast<int>(now.base_vertices);
-    ImGui::InputInt("Base vertices", &base_vertices_field_, 0, 0);
+    ImGui::InputInt("Base size", &base_vertices_field_, 0, 0);
     base_vertices_editing_ = ImGui::IsItemActive();
+    if (ImGui::IsItemHovered()) ImGui::SetTooltip("The base mesh's vertices (Enter applies; the base may keep a few more to keep the mesh's topology)");
     if (ImGui::IsItemDeactivatedAfterEdit()) {
       Document::SolveChoice choice = now;
       choice.base_vertices = std::clamp<Eigen::Index>(base_vertices_field_, 4, std::max<Eigen::Index>(4, document_->vertex_count()));
       if (choice != now) change_solve_choice(choice);
     }
-    const Eigen::Index base = document_->solved_vertex_count();
-    ImGui::TextWrapped("Solved on a base of %ld of the %ld vertices", static_cast<long>(base > 0 ? base : now.base_vertices),
-                       static_cast<long>(document_->vertex_count()));
-  } else {
-    ImGui::Text("Solved on all %ld vertices", static_cast<long>(document_->vertex_count()));
   }
+  // What solves the drag now: the set-up in place, which until a new one is ready may be of an
+  // earlier choice.
+  const Eigen::Index solved = document_->solved_vertex_count(), all = document_->vertex_count();
+  if (solved == 0) ImGui::TextWrapped("Solves on %s", solve_site_text(now).c_str());
+  else if (solved < all) ImGui::TextWrapped("Solved on a base of %ld of the %ld vertices", static_cast<long>(solved), static_cast<long>(all));
+  else ImGui::TextWrapped("Solved on all %ld vertices", static_cast<long>(all));
   bool single = now.precision == FactorPrecision::Single;
   if (ImGui::Checkbox("Single-precision factor", &single)) {
     Document::SolveChoice choice = now;
@@ -266,16 +268,16 @@ void EditorApp::draw_solve_choice() {
   ImGui::EndDisabled();
 }
 
-std::string EditorApp::solve_choice_text(const Document::SolveChoice& choice) const {
-  std::string text = choice.resolution == Resolution::Exact ? "solve on every vertex" : "solve on a base of " + std::to_string(choice.base_vertices) + " vertices";
+std::string EditorApp::solve_site_text(const Document::SolveChoice& choice) const {
+  std::string text = choice.resolution == Resolution::Exact ? "every vertex" : "a base of " + std::to_string(choice.base_vertices) + " vertices";
   if (choice.precision == FactorPrecision::Single) text += ", single-precision factor";
   return text;
 }
 
 void EditorApp::change_solve_choice(const Document::SolveChoice& choice) {
-  const std::string what = solve_choice_text(choice);
+  const std::string what = "solve on " + solve_site_text(choice);
   finish_action(what, [&] { document_->set_solve_choice(choice); });
-  status_ = "Setting up to " + what + "; until then the drag goes on as before (Ctrl+Z goes back)";
+  status_ = "From now on: " + what + " (Ctrl+Z goes back)";
 }
 
 void EditorApp::draw_exact_confirmation() {
@@ -287,8 +289,9 @@ void EditorApp::draw_exact_confirmation() {
   if (!ImGui::BeginPopupModal(kTitle, nullptr, ImGuiWindowFlags_AlwaysAutoResize)) return;
   const bool keys = !ImGui::IsWindowAppearing();
   ImGui::PushTextWrapPos(ImGui::GetFontSize() * 36.0f);
+  const Eigen::Index solved = document_ ? document_->solved_vertex_count() : 0;
   ImGui::Text("The solve on all %ld vertices factors the whole mesh, where the base has %ld.", static_cast<long>(document_ ? document_->vertex_count() : 0),
-              static_cast<long>(document_ ? document_->solve_choice().base_vertices : 0));
+              static_cast<long>(solved > 0 ? solved : confirm_exact_ ? confirm_exact_->base_vertices : 0));
   ImGui::TextUnformatted("At this size its set-up takes many times longer and needs many times the memory, and each drag step is "
                          "slower. Until it is ready the drag goes on with the base; Ctrl+Z goes back.");
   ImGui::PopTextWrapPos();

@@ -59,6 +59,10 @@ class GuiCommand final : public BatchCommand {
   int run() override {
     if (options_.restore != "ask" && options_.restore != "yes" && options_.restore != "no") throw UsageError("--restore must be ask, yes or no");
     if (!options_.session.empty() && !options_.mesh.empty()) throw UsageError("give a mesh or --session, not both");
+    if (!options_.session.empty() && (resolution_.exact || resolution_.multiresolution)) {
+      throw UsageError("--session says where it solves (its \"resolution\"); leave out --exact and --multiresolution, and change it in the "
+                       "panel (Solver: Solve on)");
+    }
     if (options_.transforms.size() > options_.handles.size()) throw UsageError("more --transform than --handle");
     if (!options_.up.empty() && options_.up != "z" && options_.up != "y") throw UsageError("--up must be z or y");
     if (options_.mesh.empty() && options_.session.empty() && (!options_.fixed.empty() || !options_.handles.empty() || !options_.roi.empty())) {
