@@ -7,6 +7,9 @@
 #include <limits>
 #include <span>
 #include <vector>
+#include <optional>
+#include <string>
+#include <unistd.h>
 #include <stdexcept>
 
 #include "hdeform/constraints.h"
@@ -16,6 +19,7 @@
 #include "hdeform/shapes.h"
 #include "hdeform/sparse_cholesky.h"
 #include "test_support.h"
+#include "linear_algebra/factor_memory.h"
 #include "linear_algebra/tree_factorization.h"
 
 namespace hdeform {
@@ -475,6 +479,30 @@ bool is_permutation(const std::vector<int>& rank) {
 // Nested dissection: a permutation, the same one every time, and the induced factorization of a
 // selection solves as AMD's does. Two meshes side by side (disconnected) and graphs without edges
 // are ordered too.
+// A factor larger than the memory left is refused with what it needs and what there is, before
+// its values are allocated, rather than left to the system's out-of-memory killer.
+TEST(FactorMemory, AFactorLargerThanTheMemoryLeftIsRefusedWithBothFigures) {
+  EXPECT_EQ(detail::factor_value_bytes(1000), 16000U);  // rows and columns, in double
+  EXPECT_NO_THROW(detail::check_factor_memory(10, 100, std::nullopt));
+  EXPECT_NO_THROW(detail::check_factor_memory(10, 100, 100));
+  try {
+    detail::check_factor_memory(6138826, 9'600'000'000, 8'100'000'000);
+    FAIL() << "a factor of 9.6 GB in 8.1 GB was accepted";
+  } catch (const SolveError& error) {
+    const std::string message = error.what();
+    EXPECT_NE(message.find("6138826-unknown"), std::string::npos) << message;
+    EXPECT_NE(message.find("needs 9.6 GB"), std::string::npos) << message;
+    EXPECT_NE(message.find("8.1 GB are available"), std::string::npos) << message;
+    EXPECT_NE(message.find("multiresolution"), std::string::npos) << message;
+  }
+#ifdef __linux__
+  const auto available = detail::available_memory_bytes();
+  ASSERT_TRUE(available.has_value()) << "MemAvailable not read from /proc/meminfo";
+  EXPECT_GT(*available, 0U);
+  EXPECT_LE(*available, static_cast<std::uint64_t>(sysconf(_SC_PHYS_PAGES)) * static_cast<std::uint64_t>(sysconf(_SC_PAGE_SIZE)));
+#endif
+}
+
 TEST(EliminationOrder, NestedDissectionGivesAPermutationThatSolvesAlike) {
   const auto shape = make_shape(ShapeKind::Cactus, 32);
   const auto laplacian = cotangent_laplacian(shape.mesh);

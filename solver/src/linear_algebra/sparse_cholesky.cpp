@@ -12,6 +12,7 @@
 
 #include "hdeform/errors.h"
 #include "hdeform/trace.h"
+#include "factor_memory.h"
 #include "single_precision_factor.h"
 #include "tree_factorization.h"
 #include "triangular_sweeps.h"
@@ -256,6 +257,7 @@ void factor_with_tree(const Eigen::SparseMatrix<double>& matrix, std::span<const
   }
   factor.analysis = analysis;
   const detail::FactorPattern& pattern = analysis->pattern;
+  detail::check_factor_memory(matrix.rows(), detail::factor_value_bytes(pattern.nonzeros()), detail::available_memory_bytes());
   if (precision == FactorPrecision::Double) {
     const trace::Scope traced("numeric factorization", "set-up");
     if (!detail::factor_numeric(permuted, pattern, factor.row_value, factor.column_value)) throw not_definite();
