@@ -11,6 +11,7 @@
 #include <cmath>
 #include <limits>
 #include <memory>
+#include <mutex>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <variant>
@@ -197,6 +198,45 @@ int refine_argument(const py::object& refine, const RefinementOptions& options) 
 }
 
 // A Deformer with its refinement setting and the buffer it writes.
+// The position arrays deform() and refine() hand to Python come from here, and come back once Python
+// lets go of them. Memory new to the process costs a page fault per page at its first write, and
+// a dear one on a virtual machine: the 3.3M Buddha's 39 MB of positions took about 100 ms to fill
+// anew on this project's machines, where filling a reused array takes under 10. A caller that
+// drops each result before asking for the next (the Blender add-on writes it to a shape key) gets
+// the same memory back each time; one that keeps them gets new arrays, never one it still holds.
+class ResultPool {
+ public:
+  std::unique_ptr<Eigen::MatrixXd> take(Eigen::Index rows, Eigen::Index cols) {
+    std::lock_guard lock(mutex_);
+    if (spare_ && spare_->rows() == rows && spare_->cols() == cols) return std::move(spare_);
+    return std::make_unique<Eigen::MatrixXd>(rows, cols);
+  }
+  // A Fortran-ordered float64 array over `matrix`; when Python frees it, the matrix comes back to
+  // `pool` (kept as the spare) if the pool is still there.
+  static py::array hand_over(std::unique_ptr<Eigen::MatrixXd> matrix, const std::shared_ptr<ResultPool>& pool) {
+    struct Lent {
+      std::unique_ptr<Eigen::MatrixXd> matrix;
+      std::weak_ptr<ResultPool> pool;
+    };
+    auto* lent = new Lent{std::move(matrix), pool};
+    const py::capsule release(lent, [](void* pointer) {
+      std::unique_ptr<Lent> back(static_cast<Lent*>(pointer));
+      if (const auto owner = back->pool.lock()) {
+        std::lock_guard lock(owner->mutex_);
+        owner->spare_ = std::move(back->matrix);
+      }
+    });
+    const Eigen::MatrixXd& data = *lent->matrix;
+    const auto rows = static_cast<py::ssize_t>(data.rows()), cols = static_cast<py::ssize_t>(data.cols());
+    return py::array_t<double>({rows, cols}, {static_cast<py::ssize_t>(sizeof(double)), static_cast<py::ssize_t>(sizeof(double)) * rows}, data.data(),
+                               release);
+  }
+
+ private:
+  std::mutex mutex_;
+  std::unique_ptr<Eigen::MatrixXd> spare_;
+};
+
 class PyDeformer {
  public:
   PyDeformer(const py::object& positions, const py::object& triangles, const py::object& fixed, const py::object& handles,
@@ -244,28 +284,28 @@ class PyDeformer {
   py::array deform(const py::object& transforms_object, const py::object& refine) {
     const auto transforms = transforms_argument(transforms_object, deformer_->handle_count());
     const int iterations = refine.is_none() ? refine_iterations_ : refine_argument(refine, deformer_->refinement_options());
-    Eigen::MatrixXd positions;
+    auto positions = results_->take(deformer_->rest().vertex_count(), 3);
     {
       const py::gil_scoped_release unlocked;
-      deformer_->deform(transforms, positions);
-      if (iterations > 0) deformer_->refine(positions, iterations);
-      last_ = positions;
+      deformer_->deform(transforms, *positions);
+      if (iterations > 0) deformer_->refine(*positions, iterations);
+      last_ = *positions;
     }
     refined_ = iterations > 0;
-    return owning_array(std::move(positions));
+    return ResultPool::hand_over(std::move(positions), results_);
   }
 
   py::array refine_more(int iterations) {
     if (last_.rows() == 0) throw py::value_error("refine: deform() first (it gives the edit to refine)");
     if (iterations < 0) throw py::value_error("refine: iterations must be 0 or more");
-    Eigen::MatrixXd positions;
+    auto positions = results_->take(last_.rows(), last_.cols());
     {
       const py::gil_scoped_release unlocked;
       deformer_->refine(last_, iterations);
-      positions = last_;
+      *positions = last_;
     }
     refined_ = true;
-    return owning_array(std::move(positions));
+    return ResultPool::hand_over(std::move(positions), results_);
   }
 
   py::array field() const { return owning_array(Eigen::VectorXd(deformer_->field())); }
@@ -318,6 +358,7 @@ class PyDeformer {
   std::unique_ptr<Deformer> deformer_;
   int refine_iterations_ = 0;
   Eigen::MatrixXd last_;  // the last edit's positions, which refine() goes on from
+  std::shared_ptr<ResultPool> results_ = std::make_shared<ResultPool>();
   bool refined_ = false;  // the last edit has been refined (else its refinement_status is an older edit's)
 };
 

@@ -358,6 +358,33 @@ def test_outputs_are_numpy_arrays_that_own_the_solvers_matrices():
     assert bent.flags["F_CONTIGUOUS"] and not bent.flags["OWNDATA"]  # a view of the solver's matrix, not a copy
 
 
+def test_a_result_dropped_lends_its_memory_to_the_next_and_one_kept_is_never_overwritten():
+    cactus = hdeform.shape("cactus", 8)
+    deformer = hdeform.Deformer(cactus["V"], cactus["F"], cactus["fixed"], cactus["handles"], refine=0)
+    twist = cactus["transform"]
+
+    def address(array):
+        return array.__array_interface__["data"][0]
+
+    first = deformer.deform([twist])
+    kept = first.copy()
+    second = deformer.deform([np.eye(4)[:3]])  # first is still held: new memory
+    assert address(second) != address(first)
+    assert np.array_equal(first, kept), "a result still held was overwritten"
+    assert np.array_equal(second, cactus["V"]), "the rest pose gives the rest shape"
+    reused = address(first)
+    del first  # dropped: its memory serves the next result, which is still exact
+    third = deformer.deform([twist])
+    assert address(third) == reused
+    assert np.array_equal(third, kept)
+    del second
+    refined = deformer.refine(2)  # refine() takes its arrays from the same place
+    assert refined.flags["F_CONTIGUOUS"] and np.isfinite(refined).all()
+    assert np.array_equal(third, kept)
+    del deformer  # a result outliving its deformer stays valid
+    assert np.array_equal(third, kept)
+
+
 @pytest.mark.skipif(not hdeform.has_render, reason="built without the engine")
 def test_render_writes_a_png_of_the_requested_size(tmp_path):
     cactus = hdeform.shape("cactus", 12)
