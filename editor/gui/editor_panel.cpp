@@ -219,6 +219,8 @@ void EditorApp::draw_controls() {
 void EditorApp::draw_solve_choice() {
   const Document::SolveChoice now = document_->solve_choice();
   const bool changeable = document_->can_change_solve_choice();
+  // Shown after the disabled part ends: a tooltip drawn inside it would be faded as well.
+  const char* tip = nullptr;
   const char* kNotChangeable = "The applied stages were solved this way; solving elsewhere would change the rest shape.\n"
                                "Undo the Apply to choose again.";
   ImGui::BeginDisabled(!changeable);
@@ -227,33 +229,33 @@ void EditorApp::draw_solve_choice() {
   if (ImGui::Combo("Solve on", &site, sites, 2) && (site == 0) != (now.resolution == Resolution::Multiresolution)) {
     Document::SolveChoice choice = now;
     choice.resolution = site == 0 ? Resolution::Multiresolution : Resolution::Exact;
+    // A base as large as the mesh would be the mesh again, solved the long way round.
+    if (choice.resolution == Resolution::Multiresolution && choice.base_vertices >= document_->vertex_count()) {
+      choice.base_vertices = std::max<Eigen::Index>(4, document_->vertex_count() / 4);
+    }
     // Every vertex of a scan is a much larger solve: asked first.
     if (choice.resolution == Resolution::Exact && document_->vertex_count() >= kMultiresolutionFrom) confirm_exact_ = choice;
     else change_solve_choice(choice);
   }
   if (ImGui::IsItemHovered(ImGuiHoveredFlags_AllowWhenDisabled)) {
-    ImGui::SetTooltip("%s", changeable ? "A base mesh: the update and the refinement solve on a simplified mesh, and the fine detail\n"
-                                         "follows it in local frames (fixed and handle vertices stay exact). Every vertex: the paper's\n"
-                                         "solve on the whole mesh. Saved with the session; undoable."
-                                       : kNotChangeable);
+    tip = changeable ? "A base mesh: the update and the refinement solve on a simplified mesh, and the fine detail\n"
+                       "follows it in local frames (fixed and handle vertices stay exact). Every vertex: the paper's\n"
+                       "solve on the whole mesh. Saved with the session; undoable."
+                     : kNotChangeable;
   }
   if (now.resolution == Resolution::Multiresolution) {
     if (!base_vertices_editing_) base_vertices_field_ = static_cast<int>(now.base_vertices);
     ImGui::InputInt("Base size", &base_vertices_field_, 0, 0);
     base_vertices_editing_ = ImGui::IsItemActive();
-    if (ImGui::IsItemHovered()) ImGui::SetTooltip("The base mesh's vertices (Enter applies; the base may keep a few more to keep the mesh's topology)");
+    if (ImGui::IsItemHovered(ImGuiHoveredFlags_AllowWhenDisabled)) {
+      tip = changeable ? "The base mesh's vertices (Enter applies; the base may keep a few more to keep the mesh's topology)" : kNotChangeable;
+    }
     if (ImGui::IsItemDeactivatedAfterEdit()) {
       Document::SolveChoice choice = now;
       choice.base_vertices = std::clamp<Eigen::Index>(base_vertices_field_, 4, std::max<Eigen::Index>(4, document_->vertex_count()));
       if (choice != now) change_solve_choice(choice);
     }
   }
-  // What solves the drag now: the set-up in place, which until a new one is ready may be of an
-  // earlier choice.
-  const Eigen::Index solved = document_->solved_vertex_count(), all = document_->vertex_count();
-  if (solved == 0) ImGui::TextWrapped("Solves on %s", solve_site_text(now).c_str());
-  else if (solved < all) ImGui::TextWrapped("Solved on a base of %ld of the %ld vertices", static_cast<long>(solved), static_cast<long>(all));
-  else ImGui::TextWrapped("Solved on all %ld vertices", static_cast<long>(all));
   bool single = now.precision == FactorPrecision::Single;
   if (ImGui::Checkbox("Single-precision factor", &single)) {
     Document::SolveChoice choice = now;
@@ -261,11 +263,18 @@ void EditorApp::draw_solve_choice() {
     change_solve_choice(choice);
   }
   if (ImGui::IsItemHovered(ImGuiHoveredFlags_AllowWhenDisabled)) {
-    ImGui::SetTooltip("%s", changeable ? "The factor is stored in single precision (half its memory); each solve is refined against the\n"
-                                         "double matrix until its residual is at double accuracy. Saved with the session; undoable."
-                                       : kNotChangeable);
+    tip = changeable ? "The factor is stored in single precision (half its memory); each solve is refined against the\n"
+                       "double matrix until its residual is at double accuracy. Saved with the session; undoable."
+                     : kNotChangeable;
   }
   ImGui::EndDisabled();
+  if (tip != nullptr) ImGui::SetTooltip("%s", tip);
+  // What solves the drag now: the set-up in place, which until a new one is ready may be of an
+  // earlier choice.
+  const Eigen::Index solved = document_->solved_vertex_count(), all = document_->vertex_count();
+  if (solved == 0) ImGui::TextWrapped("Solves on %s", solve_site_text(now).c_str());
+  else if (solved < all) ImGui::TextWrapped("Solved on a base of %ld of the %ld vertices", static_cast<long>(solved), static_cast<long>(all));
+  else ImGui::TextWrapped("Solved on all %ld vertices", static_cast<long>(all));
 }
 
 std::string EditorApp::solve_site_text(const Document::SolveChoice& choice) const {
