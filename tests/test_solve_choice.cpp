@@ -3,6 +3,7 @@
 // replays.
 #include <gtest/gtest.h>
 
+#include <span>
 #include <stdexcept>
 
 #include "hdeform/mesh.h"
@@ -89,6 +90,38 @@ TEST_F(SolveChoiceTest, WhileTheNewChoiceIsSetUpTheDragGoesOnWithTheSetUpInPlace
   document->wait_until_ready();
   EXPECT_FALSE(document->drags_previous_selection());
   EXPECT_LT(document->solved_vertex_count(), document->vertex_count());
+}
+
+// A switch undone at once: the set-up for it stops at its next stage instead of holding up the
+// one after it (on a scan, for the rest of a factorization of every vertex), and the set-up in
+// place answers on.
+TEST(SolveChoice, ASetUpNoLongerWantedStopsEarly) {
+  const Shape big = make_shape(ShapeKind::Cactus, 160);
+  cli::Session session;
+  session.mesh = "shape:cactus:160";
+  cli::Document document(session, big.mesh, DeformerOptions{}, nullptr);
+  document.paint(big.demo_constraints.fixed, cli::Layer::Fixed, false);
+  document.paint(big.demo_constraints.handles[0], cli::Layer::Handle, false);
+  document.commit();
+  document.wait_until_ready();
+  const Eigen::MatrixXd exact = document.result();
+  ASSERT_GT(document.vertex_count(), 50000) << "a set-up long enough to be stopped";
+  document.set_solve_choice({Resolution::Multiresolution, document.vertex_count() / 8, FactorPrecision::Double});
+  document.commit("solve on a base");
+  document.poll();
+  ASSERT_EQ(document.solver_state(), cli::Document::SolverState::Building);
+  ASSERT_TRUE(document.undo());
+  document.wait_until_ready();
+  EXPECT_EQ(document.set_ups_stopped(), 1U);
+  EXPECT_EQ(document.solved_vertex_count(), document.vertex_count()) << "the exact set-up still in place";
+  EXPECT_EQ(document.result(), exact);
+  // Changing only the selection lets the set-up finish: its operators serve the next one.
+  const auto& handle = big.demo_constraints.handles[0];
+  document.paint(std::span(handle.data(), handle.size() / 2), cli::Layer::Handle, true);
+  document.poll();
+  document.paint(handle, cli::Layer::Handle, false);
+  document.wait_until_ready();
+  EXPECT_EQ(document.set_ups_stopped(), 1U);
 }
 
 TEST_F(SolveChoiceTest, AnAppliedStageFixesWhereTheSessionSolves) {

@@ -16,6 +16,9 @@ bool same_constraints(const EditConstraints& a, const EditConstraints& b) {
   return a.fixed == b.fixed && a.handles == b.handles && a.region_of_interest == b.region_of_interest;
 }
 
+// Thrown from a set-up's progress report once the set-up is of no use any more.
+struct SetUpStopped {};
+
 // Whether a set-up with `choice` can take `operators` (the Deformer checks the resolution, not the
 // base's size).
 bool operators_fit(const MeshOperators& operators, const Document::SolveChoice& choice) {
@@ -30,6 +33,8 @@ struct Document::Build {
   std::shared_ptr<const Mesh> rest;
   SolveChoice choice;
   std::shared_ptr<const MeshOperators> operators;  // of `rest`, from the last set-up on it, or null
+  // Set once the set-up cannot serve: it stops at its next stage.
+  std::atomic<bool> stop{false};
   std::mutex mutex;
   std::string stage;  // with mutex: the set-up's current stage, for the panel
   BackgroundTask<std::unique_ptr<Deformer>> task;  // last: stops before what it writes to goes
@@ -66,7 +71,10 @@ Document::Document(Session session, Mesh base, DeformerOptions options, Publish 
 
 Document::~Document() {
   stop_pipeline();
-  if (build_) build_->task.abandon();
+  if (build_) {
+    build_->stop = true;  // closing or opening another mesh: nothing of it is wanted
+    build_->task.abandon();
+  }
 }
 
 const Document::PaintedLists& Document::painted() const {
@@ -402,6 +410,7 @@ void Document::start_build() {
   options.refinement = current_stage().refinement_options();
   build->task.start("set-up", [build, options] {
     return std::make_unique<Deformer>(*build->rest, build->constraints, build->operators, options, [build](std::string_view stage) {
+      if (build->stop.load()) throw SetUpStopped{};
       std::lock_guard lock(build->mutex);
       build->stage = std::string(stage);
     });
@@ -416,9 +425,18 @@ void Document::install_build() {
   const bool still_current =
       same_constraints(build->constraints, current_stage().constraints()) && build->rest == rest_ && build->choice == solve_choice();
   if (!still_current) {
+    if (outcome.exception && build->stop.load()) {
+      try {
+        std::rethrow_exception(outcome.exception);
+      } catch (const SetUpStopped&) {
+        ++set_ups_stopped_;
+      } catch (...) {  // it failed on its own before it could stop: nothing to keep either way
+      }
+    }
     // The next poll starts a build for the new constraints. What depends on the rest shape alone
-    // (at 13M triangles the base mesh, 22 s of the set-up's 25) serves it as well.
-    if (outcome.result && build->rest == rest_) {
+    // (at 13M triangles the base mesh, 22 s of the set-up's 25) serves it as well, where the
+    // session still solves that way.
+    if (outcome.result && build->rest == rest_ && operators_fit(*(*outcome.result)->operators(), solve_choice())) {
       operators_ = (*outcome.result)->operators();
       operators_rest_ = build->rest;
     }
@@ -485,6 +503,10 @@ void Document::install_build() {
 
 void Document::poll() {
   if (build_ && build_->task.done()) install_build();
+  // A set-up for another rest shape or solve choice would leave nothing of use (a selection's
+  // would leave its operators): it stops at its next stage, so that an undone switch to every
+  // vertex of a scan does not hold up the set-up after it for the rest of a long factorization.
+  if (build_ && (build_->rest != rest_ || !(build_->choice == solve_choice()))) build_->stop = true;
   if (build_ || hold_set_up_) return;
   const EditConstraints constraints = current_stage().constraints();
   if (constraints.handles.empty()) {

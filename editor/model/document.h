@@ -116,6 +116,8 @@ class Document {
   // The set-up in progress takes the rest shape's operators (weights, Laplacian and order, the
   // base mesh) from an earlier one instead of computing them.
   bool set_up_reuses_operators() const;
+  // How many set-ups stopped early because the rest shape or the solve choice changed under them.
+  std::size_t set_ups_stopped() const { return set_ups_stopped_; }
   // The harmonic field of the ready deformer, or nullptr.
   const Eigen::VectorXd* field() const;
   const DeformerTimings* setup_timings() const;
@@ -280,6 +282,7 @@ class Document {
   std::size_t history_index_ = 0;
   std::size_t saved_index_ = 0;
   bool hold_set_up_ = false;
+  std::size_t set_ups_stopped_ = 0;
   std::string last_history_step_;
 };
 
