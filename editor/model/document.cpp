@@ -308,9 +308,6 @@ void Document::commit(std::string what) {
   history_index_ = history_.size() - 1;
 }
 
-// A change not yet committed (a value still being typed, a field dragged) is what the user
-// sees: undo first records it, so that it can be redone, and so that it goes back to the step
-// before it rather than to an older one.
 void Document::restore(const Snapshot& snapshot) {
   applied_ = snapshot.session.applied;
   rest_ = snapshot.rest;
@@ -321,6 +318,9 @@ void Document::restore(const Snapshot& snapshot) {
   load_stage(snapshot.session.current);
 }
 
+// A change not yet committed (a value still being typed, a field dragged) is what the user
+// sees: undo first records it, so that it can be redone, and so that it goes back to the step
+// before it rather than to an older one.
 bool Document::undo() {
   commit();
   if (!can_undo()) return false;
