@@ -89,7 +89,9 @@ class SparseCholesky {
   struct Factor;  ///< L in the two layouts the sweeps read
 
   /// Analyses and factors a symmetric positive definite matrix (both triangles stored).
-  /// Throws SolveError when it is not positive definite or the factorization fails.
+  /// Throws SolveError when it is not positive definite or the factorization fails, and (Tree)
+  /// before L's values are allocated when they would not fit in the memory available
+  /// (MemAvailable, or the process's memory cgroup where that allows less), naming both figures.
   ///  - ordering (Tree only; the other backends order by themselves): ordering[i] is unknown i's
   ///    rank in a fill-reducing elimination order, lowest first; empty: AMD on this matrix.
   ///  - reuse (Tree only): an earlier factorization's analysis(); taken, and the analysis
