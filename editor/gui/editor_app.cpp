@@ -213,6 +213,7 @@ void EditorApp::shutdown() {
   transfer_.reset();
   if (context_) vkDeviceWaitIdle(context_->device());
   document_.reset();  // stops its threads before the publisher goes
+  retiring_.abandon();
   load_.abandon();
   proxy_task_.abandon();  // its end wakes the window system: done before that goes
   save_task_.abandon();   // the same (a save being written is finished first)

@@ -212,6 +212,8 @@ class EditorApp {
   };
 
   void finish_load();
+  // Closes the document (nothing more is published) and lets go of it on a thread of its own.
+  void retire_document();
   void install(Loaded loaded_document);
 
   // --up, when given (transfer mode guesses each mesh's without it).
@@ -461,6 +463,7 @@ class EditorApp {
 
   BackgroundTask<Loaded> load_;  // reading a mesh or session and replaying it
   BackgroundTask<Eigen::MatrixXi> proxy_task_;  // simplifying the mesh just opened (CPU device)
+  BackgroundTask<bool> retiring_;               // letting go of the document another one replaced
   MotionDetail motion_detail_;
   bool refinement_settled_ = false;  // the latest publication's refinement converged (announced)
   Eigen::Index proxy_triangle_count_ = 0;

@@ -556,6 +556,11 @@ bool Document::settled() const {
   return view.request == last_request_ && view.finished;
 }
 
+void Document::close() {
+  stop_pipeline();
+  if (build_) build_->stop = true;
+}
+
 void Document::wait_until_ready() {
   hold_set_up_ = false;  // the answer is wanted now
   for (;;) {

@@ -197,6 +197,10 @@ class Document {
   Eigen::MatrixXd result();
   // Blocks until no rebuild is running (for tests and saving).
   void wait_until_ready();
+  // Stops the update pipeline (nothing is published once this returns) and asks a set-up in
+  // progress to stop at its next stage, so that the rest of the document can be let go of on
+  // another thread while the next one opens.
+  void close();
 
  private:
   struct Handle {
