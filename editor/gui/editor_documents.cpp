@@ -222,6 +222,7 @@ void EditorApp::install(Loaded loaded_document) {
   Loaded* loaded = &loaded_document;
   vkDeviceWaitIdle(context_->device());
   retire_document();  // its pipeline stops before its publisher goes
+  confirm_exact_.reset();  // a question about the mesh let go of
   publisher_.reset();
   const Mesh& rest = loaded->document->rest();
   exchange_ = std::make_unique<engine::GeometryExchange>(static_cast<std::size_t>(rest.vertex_count()));

@@ -296,11 +296,16 @@ void EditorApp::draw_exact_confirmation() {
     print_json_line({{"event", "dialog"}, {"title", kTitle}});
   }
   if (!ImGui::BeginPopupModal(kTitle, nullptr, ImGuiWindowFlags_AlwaysAutoResize)) return;
+  if (!confirm_exact_ || !document_) {  // the mesh it asked about was replaced (a file dropped on the window)
+    ImGui::CloseCurrentPopup();
+    ImGui::EndPopup();
+    return;
+  }
   const bool keys = !ImGui::IsWindowAppearing();
   ImGui::PushTextWrapPos(ImGui::GetFontSize() * 36.0f);
   const Eigen::Index solved = document_ ? document_->solved_vertex_count() : 0;
-  ImGui::Text("The solve on all %ld vertices factors the whole mesh, where the base has %ld.", static_cast<long>(document_ ? document_->vertex_count() : 0),
-              static_cast<long>(solved > 0 ? solved : confirm_exact_ ? confirm_exact_->base_vertices : 0));
+  ImGui::Text("The solve on all %ld vertices factors the whole mesh, where the base has %ld.", static_cast<long>(document_->vertex_count()),
+              static_cast<long>(solved > 0 ? solved : confirm_exact_->base_vertices));
   ImGui::TextUnformatted("At this size its set-up takes many times longer and needs many times the memory, and each drag step is "
                          "slower. Until it is ready the drag goes on with the base; Ctrl+Z goes back.");
   ImGui::PopTextWrapPos();
@@ -313,7 +318,7 @@ void EditorApp::draw_exact_confirmation() {
     print_json_line({{"event", "dialog closed"}, {"title", kTitle}, {"choice", *answer ? "exact" : "cancel"}});
     const Document::SolveChoice choice = *confirm_exact_;
     confirm_exact_.reset();
-    if (*answer && document_ && document_->can_change_solve_choice()) change_solve_choice(choice);
+    if (*answer && document_->can_change_solve_choice()) change_solve_choice(choice);
   }
   ImGui::EndPopup();
 }
