@@ -11,6 +11,8 @@ namespace hdeform::cli {
 namespace {
 
 constexpr int kLeafTriangles = 4;
+// Subtrees of at least this many triangles build and refit their halves side by side.
+constexpr int kParallelTriangles = 1 << 15;
 
 // Möller–Trumbore, both sides; returns the distance along the ray or nullopt. A ray through a
 // shared vertex or edge must not slip between the triangles there: barycentric tests allow a
@@ -56,7 +58,8 @@ bool hits_box(const Eigen::ParametrizedLine<float, 3>& ray, const Eigen::Vector3
 }  // namespace
 
 MeshPicker::MeshPicker(const Eigen::MatrixXi& triangles, std::span<const float> position_normal)
-    : triangles_(triangles), positions_(position_normal.begin(), position_normal.end()) {
+    : triangles_(triangles) {
+  keep_positions(position_normal);
   const int count = static_cast<int>(triangles_.rows());
   if (count == 0) return;
   // The splits sort by centroid: computed once, kept beside each triangle's index so that a
@@ -110,7 +113,6 @@ void MeshPicker::build(const SubtreeSizes& sizes, std::vector<Centred>& centred,
   const int right = left + sizes.known_nodes(middle - begin);
   node.first = left;
   node.count = -right;  // inner node: minus the right child
-  constexpr int kParallelTriangles = 1 << 15;
   if (end - begin >= kParallelTriangles) {
     tbb::parallel_invoke([&] { build(sizes, centred, begin, middle, left); }, [&] { build(sizes, centred, middle, end, right); });
   } else {
@@ -120,26 +122,50 @@ void MeshPicker::build(const SubtreeSizes& sizes, std::vector<Centred>& centred,
 }
 
 void MeshPicker::refit(std::span<const float> position_normal) {
-  positions_.assign(position_normal.begin(), position_normal.end());
+  keep_positions(position_normal);
   fit_boxes();
 }
 
+// The positions alone: half the bytes to copy and to read back.
+void MeshPicker::keep_positions(std::span<const float> position_normal) {
+  const std::size_t vertex_count = position_normal.size() / 6;
+  positions_.resize(3 * vertex_count);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, vertex_count, std::size_t{1} << 14), [&](const tbb::blocked_range<std::size_t>& range) {
+    for (std::size_t v = range.begin(); v != range.end(); ++v) {
+      for (std::size_t c = 0; c < 3; ++c) positions_[3 * v + c] = position_normal[6 * v + c];
+    }
+  });
+}
+
 void MeshPicker::fit_boxes() {
-  // Children are stored after their parent: fit from the back.
-  for (std::size_t k = nodes_.size(); k-- > 0;) {
-    Node& node = nodes_[k];
+  if (!nodes_.empty()) fit_subtree(0, 0, static_cast<int>(order_.size()));
+}
+
+// A refit follows every change on screen while a paint tool hovers, so it runs on every core: the
+// halves of large subtrees side by side (60 ms on one thread at 3.3 million triangles). Each box
+// is the same whatever the schedule.
+const Eigen::AlignedBox3f& MeshPicker::fit_subtree(int index, int begin, int end) {
+  Node& node = nodes_[static_cast<std::size_t>(index)];
+  if (node.count >= 0) {
     Eigen::AlignedBox3f box;
-    if (node.count > 0) {
-      for (int i = node.first; i < node.first + node.count; ++i) {
-        const int t = order_[static_cast<std::size_t>(i)];
-        for (int c = 0; c < 3; ++c) box.extend(vertex(triangles_(t, c)));
-      }
-    } else if (node.count < 0) {
-      box = nodes_[static_cast<std::size_t>(node.first)].box;
-      box.extend(nodes_[static_cast<std::size_t>(-node.count)].box);
+    for (int i = node.first; i < node.first + node.count; ++i) {
+      const int t = order_[static_cast<std::size_t>(i)];
+      for (int c = 0; c < 3; ++c) box.extend(vertex(triangles_(t, c)));
     }
     node.box = box;
+    return node.box;
   }
+  const int middle = begin + (end - begin) / 2;
+  if (end - begin >= kParallelTriangles) {
+    tbb::parallel_invoke([&] { fit_subtree(node.first, begin, middle); }, [&] { fit_subtree(-node.count, middle, end); });
+  } else {
+    fit_subtree(node.first, begin, middle);
+    fit_subtree(-node.count, middle, end);
+  }
+  Eigen::AlignedBox3f box = nodes_[static_cast<std::size_t>(node.first)].box;
+  box.extend(nodes_[static_cast<std::size_t>(-node.count)].box);
+  node.box = box;
+  return node.box;
 }
 
 std::optional<MeshPicker::Hit> MeshPicker::pick(const Eigen::ParametrizedLine<float, 3>& ray) const {

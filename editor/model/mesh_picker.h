@@ -37,7 +37,7 @@ class MeshPicker {
     Eigen::Vector3f centroid;  // three times the centroid: only the order matters
     int triangle = 0;
   };
-  Eigen::Vector3f vertex(int v) const { return {positions_[6 * v], positions_[6 * v + 1], positions_[6 * v + 2]}; }
+  Eigen::Vector3f vertex(int v) const { return {positions_[3 * v], positions_[3 * v + 1], positions_[3 * v + 2]}; }
   class SubtreeSizes {
    public:
     int nodes(int triangles);              // computes and keeps
@@ -46,10 +46,12 @@ class MeshPicker {
     std::unordered_map<int, int> nodes_of_;
   };
   void build(const SubtreeSizes& sizes, std::vector<Centred>& centred, int begin, int end, int index);
+  void keep_positions(std::span<const float> position_normal);
   void fit_boxes();
+  const Eigen::AlignedBox3f& fit_subtree(int index, int begin, int end);  // the triangles order_[begin, end)
 
   Eigen::MatrixXi triangles_;
-  std::vector<float> positions_;
+  std::vector<float> positions_;  // x, y, z per vertex
   std::vector<int> order_;
   std::vector<Node> nodes_;
 };
