@@ -5,11 +5,13 @@
 #include <cmath>
 #include <random>
 #include <set>
+#include <thread>
 
 #include "hdeform/engine/camera.h"
 #include "hdeform/engine/geometry_exchange.h"
 #include "hdeform/mesh_io.h"
 #include "hdeform/shapes.h"
+#include "gui/view_picking.h"
 #include "model/mesh_picker.h"
 #include "model/selection.h"
 #include "test_support.h"
@@ -115,6 +117,38 @@ TEST(Selection, BallLassoGrowShrinkAndConnected) {
   EXPECT_EQ(std::count(ring.begin(), ring.end(), true), 1 + static_cast<long>(adjacency.neighbours(middle).size()));
   EXPECT_EQ(cli::shrunk(ring, adjacency), one);
   EXPECT_EQ(cli::connected_vertices(0, adjacency).size(), static_cast<std::size_t>(grid.vertex_count()));
+}
+
+// While the shape on screen keeps changing (the refinement settling), the brush's outline may pick
+// on a shape up to the lag old, so that it does not refit the picker every frame; a pick that
+// paints always sees the shape on screen.
+TEST(ViewPicker, TheOutlineRefitsAtMostOncePerLagAndAPaintingPickAlways) {
+  Mesh mesh = make_shape(ShapeKind::Sphere, 16).mesh;
+  engine::GeometryExchange exchange(static_cast<std::size_t>(mesh.vertex_count()));
+  engine::GeometryPublisher publisher(exchange, mesh.triangles);
+  auto move_up = [&](double by) {
+    mesh.positions.col(1).array() += by;
+    publisher.publish(mesh.positions);
+    return exchange.acquire();
+  };
+  auto ray_at = [](float y) { return Eigen::ParametrizedLine<float, 3>(Eigen::Vector3f(5.0f, y, 0.0f), -Eigen::Vector3f::UnitX()); };
+  using Need = cli::ViewPicker::Need;
+  cli::ViewPicker view(std::chrono::hours(1));
+  ASSERT_NE(view.follow(mesh.triangles, move_up(0.0), Need::Exact), nullptr);
+  EXPECT_TRUE(view.current()->pick(ray_at(0.0f)));
+  const auto* moved = move_up(3.0);
+  EXPECT_TRUE(view.follow(mesh.triangles, moved, Need::Outline)->pick(ray_at(0.0f))) << "the outline refitted within the lag";
+  EXPECT_FALSE(view.follow(mesh.triangles, moved, Need::Exact)->pick(ray_at(0.0f))) << "a painting pick used an old shape";
+  EXPECT_TRUE(view.current()->pick(ray_at(3.0f)));
+
+  const auto lag = std::chrono::milliseconds(30);
+  cli::ViewPicker quick(lag);
+  ASSERT_NE(quick.follow(mesh.triangles, exchange.acquire(), Need::Exact), nullptr);
+  moved = move_up(3.0);
+  std::this_thread::sleep_for(lag + std::chrono::milliseconds(20));
+  auto* outline = quick.follow(mesh.triangles, moved, Need::Outline);
+  EXPECT_TRUE(outline->pick(ray_at(6.0f))) << "the outline did not catch up after the lag";
+  EXPECT_FALSE(outline->pick(ray_at(3.0f)));
 }
 
 // Large enough that the halves are built in parallel (32K triangles and more): the nearest hit

@@ -398,8 +398,9 @@ class EditorApp {
   }
   Eigen::ParametrizedLine<float, 3> cursor_ray(const ImVec2& cursor) const;
 
-  // The geometry on screen (the renderer's newest snapshot); the picker follows it.
-  const engine::GeometrySnapshot* shown_geometry();
+  // The geometry on screen (the renderer's newest snapshot); the picker follows it, as closely as
+  // `need` asks.
+  const engine::GeometrySnapshot* shown_geometry(ViewPicker::Need need = ViewPicker::Need::Exact);
   void handle_mouse();
 
   // Applies the cursor's move since the last one applied (from the frame or from the wait for the
@@ -408,7 +409,7 @@ class EditorApp {
 
   // The brush on screen: its centre and radius in window pixels, its world size at the cursor's
   // depth on the mesh (painting through, at the view target's depth where the cursor misses it).
-  std::optional<std::pair<ImVec2, float>> brush_on_screen(const ImVec2& mouse);
+  std::optional<std::pair<ImVec2, float>> brush_on_screen(const ImVec2& mouse, ViewPicker::Need need = ViewPicker::Need::Exact);
   // Paints under the brush at `mouse` (a stroke's first stamp), or along the way from the last
   // stamp through this frame's pointer positions.
   void paint_brush(const ImVec2& mouse);

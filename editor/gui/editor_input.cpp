@@ -66,12 +66,12 @@ Eigen::ParametrizedLine<float, 3> EditorApp::cursor_ray(const ImVec2& cursor) co
   return camera_.ray(cursor.x * scale.x, cursor.y * scale.y, static_cast<float>(extent.width), static_cast<float>(extent.height));
 }
 
-const engine::GeometrySnapshot* EditorApp::shown_geometry() {
+const engine::GeometrySnapshot* EditorApp::shown_geometry(ViewPicker::Need need) {
   const engine::GeometrySnapshot* shown = exchange_ ? exchange_->acquire() : nullptr;
   // A drag's answer holding the proxy's vertices alone is not the shape to pick on: nothing is,
   // until the whole one follows (the pipeline publishes it once the input rests).
   if (shown != nullptr && shown->only_vertices) return nullptr;
-  picker_.follow(document_->rest().triangles, shown);
+  picker_.follow(document_->rest().triangles, shown, need);
   return shown;
 }
 
@@ -138,8 +138,8 @@ void EditorApp::continue_handle_drag(const ImVec2& cursor, Clock::time_point eve
   drag_cursor_ = cursor;
 }
 
-std::optional<std::pair<ImVec2, float>> EditorApp::brush_on_screen(const ImVec2& mouse) {
-  if (shown_geometry() == nullptr) return std::nullopt;
+std::optional<std::pair<ImVec2, float>> EditorApp::brush_on_screen(const ImVec2& mouse, ViewPicker::Need need) {
+  if (shown_geometry(need) == nullptr) return std::nullopt;
   const auto ray = cursor_ray(mouse);
   const auto hit = picker_.current()->pick(ray);
   if (!hit && !tools_.paint_through) return std::nullopt;
@@ -277,7 +277,7 @@ void EditorApp::draw_overlays() {
   if (is_paint_tool(tools_.tool)) {
     if (tools_.lasso && stroke_.size() > 1) draw->AddPolyline(stroke_.data(), static_cast<int>(stroke_.size()), IM_COL32(255, 230, 60, 255), 0, 1.5f);
     if (!tools_.lasso && !ImGui::GetIO().WantCaptureMouse) {
-      if (const auto brush = brush_on_screen(mouse)) {
+      if (const auto brush = brush_on_screen(mouse, ViewPicker::Need::Outline)) {
         const ImU32 color = tools_.erase ? IM_COL32(255, 80, 80, 255) : tools_.paint_through ? IM_COL32(120, 220, 255, 255) : IM_COL32(255, 255, 255, 220);
         draw->AddCircle(brush->first, brush->second, color, 48, 1.5f);
         if (tools_.paint_through) draw->AddCircle(brush->first, brush->second - 3.0f, color, 48, 1.0f);
