@@ -1,8 +1,8 @@
 #pragma once
 // Picking on what a view shows, the same in both editor modes: a MeshPicker over the mesh's
-// triangles, refitted whenever the geometry on screen changes, so that a click hits the deformed
-// shape the user sees. It is built ahead of need (prepare()) where the editor has cores to spare,
-// else on first use.
+// triangles, refitted when the geometry on screen changes (for the brush's outline at most a few
+// times a second), so that a click hits the deformed shape the user sees. It is built ahead of
+// need (prepare()) where the editor has cores to spare, else on first use.
 #include <chrono>
 #include <cstdint>
 #include <memory>
