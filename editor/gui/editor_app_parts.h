@@ -398,8 +398,9 @@ class EditorApp {
   }
   Eigen::ParametrizedLine<float, 3> cursor_ray(const ImVec2& cursor) const;
 
-  // The geometry on screen (the renderer's newest snapshot); the picker follows it, as closely as
-  // `need` asks.
+  // The whole shape on screen (the renderer's newest snapshot), or nullptr.
+  const engine::GeometrySnapshot* shown_snapshot();
+  // The same, with the picker following it as closely as `need` asks.
   const engine::GeometrySnapshot* shown_geometry(ViewPicker::Need need = ViewPicker::Need::Exact);
   void handle_mouse();
 

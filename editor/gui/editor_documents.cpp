@@ -298,8 +298,7 @@ void EditorApp::prepare_picking() {
   if (!document_ || picker_.prepared() || proxy_task_.running() || dragging_ || benchmark_) return;
   const auto state = document_->solver_state();
   if (state == Document::SolverState::Building || (state == Document::SolverState::Ready && !document_->settled())) return;
-  const engine::GeometrySnapshot* shown = exchange_->acquire();
-  if (shown != nullptr && !shown->only_vertices) picker_.prepare(document_->rest().triangles, *shown);
+  if (const engine::GeometrySnapshot* shown = shown_snapshot()) picker_.prepare(document_->rest().triangles, *shown);
 }
 
 float EditorApp::panel_fraction() const {
@@ -317,7 +316,9 @@ void EditorApp::adjust_camera(bool reset_angles) {
   }
   // Fit: the shape as it is on screen, deformed, not the rest shape.
   engine::Bounds bounds = engine::Bounds::of(document_->rest().positions);
-  if (const engine::GeometrySnapshot* shown = shown_geometry(); shown != nullptr && !shown->position_normal.empty()) {
+  // (Not shown_geometry(): fitting needs no picker, whose build would hold this frame up for a
+  // second at 3.3 million triangles before the background build has begun.)
+  if (const engine::GeometrySnapshot* shown = shown_snapshot(); shown != nullptr && !shown->position_normal.empty()) {
     const auto& values = shown->position_normal;
     bounds.min = bounds.max = Eigen::Vector3f(values[0], values[1], values[2]);
     for (std::size_t k = 0; k + 2 < values.size(); k += 6) {

@@ -66,12 +66,16 @@ Eigen::ParametrizedLine<float, 3> EditorApp::cursor_ray(const ImVec2& cursor) co
   return camera_.ray(cursor.x * scale.x, cursor.y * scale.y, static_cast<float>(extent.width), static_cast<float>(extent.height));
 }
 
-const engine::GeometrySnapshot* EditorApp::shown_geometry(ViewPicker::Need need) {
+const engine::GeometrySnapshot* EditorApp::shown_snapshot() {
   const engine::GeometrySnapshot* shown = exchange_ ? exchange_->acquire() : nullptr;
-  // A drag's answer holding the proxy's vertices alone is not the shape to pick on: nothing is,
-  // until the whole one follows (the pipeline publishes it once the input rests).
-  if (shown != nullptr && shown->only_vertices) return nullptr;
-  picker_.follow(document_->rest().triangles, shown, need);
+  // A drag's answer holding the proxy's vertices alone is not the whole shape: nothing is, until
+  // the whole one follows (the pipeline publishes it once the input rests).
+  return shown != nullptr && shown->only_vertices ? nullptr : shown;
+}
+
+const engine::GeometrySnapshot* EditorApp::shown_geometry(ViewPicker::Need need) {
+  const engine::GeometrySnapshot* shown = shown_snapshot();
+  if (shown != nullptr) picker_.follow(document_->rest().triangles, shown, need);
   return shown;
 }
 
