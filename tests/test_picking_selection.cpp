@@ -151,6 +151,24 @@ TEST(ViewPicker, TheOutlineRefitsAtMostOncePerLagAndAPaintingPickAlways) {
   EXPECT_FALSE(outline->pick(ray_at(3.0f)));
 }
 
+// A picker prepared in the background is built on the rest shape; the first pick, even the
+// outline's, refits it to the shape on screen.
+TEST(ViewPicker, APickerPreparedOnTheRestShapePicksOnTheShapeShown) {
+  const auto rest = std::make_shared<const Mesh>(make_shape(ShapeKind::Sphere, 16).mesh);
+  Mesh moved = *rest;
+  moved.positions.col(1).array() += 3.0;
+  engine::GeometryExchange exchange(static_cast<std::size_t>(moved.vertex_count()));
+  engine::GeometryPublisher(exchange, moved.triangles).publish(moved.positions);
+  cli::ViewPicker view(std::chrono::hours(1));
+  view.prepare(rest);
+  ASSERT_TRUE(view.prepared());
+  const auto* picker = view.follow(rest->triangles, exchange.acquire(), cli::ViewPicker::Need::Outline);
+  ASSERT_NE(picker, nullptr);
+  const auto ray_at = [](float y) { return Eigen::ParametrizedLine<float, 3>(Eigen::Vector3f(5.0f, y, 0.0f), -Eigen::Vector3f::UnitX()); };
+  EXPECT_TRUE(picker->pick(ray_at(3.0f))) << "the outline picked on the rest shape";
+  EXPECT_FALSE(picker->pick(ray_at(0.0f)));
+}
+
 // Large enough that the halves are built in parallel (32K triangles and more): the nearest hit
 // is still the one found by testing every triangle, and a refit after a move follows it.
 TEST(MeshPicker, ABuildInParallelFindsWhatTestingEveryTriangleFinds) {

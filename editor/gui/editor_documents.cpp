@@ -298,7 +298,7 @@ void EditorApp::prepare_picking() {
   if (!document_ || picker_.prepared() || proxy_task_.running() || dragging_ || benchmark_) return;
   const auto state = document_->solver_state();
   if (state == Document::SolverState::Building || (state == Document::SolverState::Ready && !document_->settled())) return;
-  if (const engine::GeometrySnapshot* shown = shown_snapshot()) picker_.prepare(document_->rest().triangles, *shown);
+  picker_.prepare(document_->shared_rest());
 }
 
 float EditorApp::panel_fraction() const {

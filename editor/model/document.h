@@ -50,6 +50,8 @@ class Document {
   // The state as a session (lists rebuilt from the per-vertex labels).
   Session session() const;
   const Mesh& rest() const { return *rest_; }
+  // The same, for work that may outlive the document's next rest shape (or the document).
+  std::shared_ptr<const Mesh> shared_rest() const { return rest_; }
   Eigen::Index vertex_count() const { return rest_->vertex_count(); }
   const VertexAdjacency& adjacency() const { return adjacency_; }
 

@@ -60,6 +60,18 @@ bool hits_box(const Eigen::ParametrizedLine<float, 3>& ray, const Eigen::Vector3
 MeshPicker::MeshPicker(const Eigen::MatrixXi& triangles, std::span<const float> position_normal)
     : triangles_(triangles) {
   keep_positions(position_normal);
+  build_tree();
+}
+
+MeshPicker::MeshPicker(const Eigen::MatrixXi& triangles, const Eigen::MatrixXd& positions)
+    : triangles_(triangles), positions_(static_cast<std::size_t>(3 * positions.rows())) {
+  for (Eigen::Index v = 0; v < positions.rows(); ++v) {
+    for (int c = 0; c < 3; ++c) positions_[static_cast<std::size_t>(3 * v + c)] = static_cast<float>(positions(v, c));
+  }
+  build_tree();
+}
+
+void MeshPicker::build_tree() {
   const int count = static_cast<int>(triangles_.rows());
   if (count == 0) return;
   // The splits sort by centroid: computed once, kept beside each triangle's index so that a

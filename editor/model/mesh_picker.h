@@ -21,6 +21,8 @@ class MeshPicker {
 
   // `position_normal`: 6 floats per vertex (position, normal), as the renderer receives them.
   MeshPicker(const Eigen::MatrixXi& triangles, std::span<const float> position_normal);
+  // The same from positions (one row per vertex).
+  MeshPicker(const Eigen::MatrixXi& triangles, const Eigen::MatrixXd& positions);
 
   // Refits the boxes to new positions (same layout); O(triangles).
   void refit(std::span<const float> position_normal);
@@ -47,6 +49,7 @@ class MeshPicker {
   };
   void build(const SubtreeSizes& sizes, std::vector<Centred>& centred, int begin, int end, int index);
   void keep_positions(std::span<const float> position_normal);
+  void build_tree();
   void fit_boxes();
   const Eigen::AlignedBox3f& fit_subtree(int index, int begin, int end);  // the triangles order_[begin, end)
 
