@@ -3,6 +3,10 @@
 
 #include <nlohmann/json.hpp>
 
+#include <cstdio>
+#include <cstdlib>
+#include <iostream>
+
 #include "commands/termination_signals.h"
 
 namespace hdeform::cli::gui {
@@ -212,11 +216,13 @@ void EditorApp::shutdown() {
   benchmark_.reset();  // its thread wakes the window system: stopped before that goes
   transfer_.reset();
   if (context_) vkDeviceWaitIdle(context_->device());
-  document_.reset();  // stops its threads before the publisher goes
+  document_.reset();  // stops its pipeline before the publisher goes; a set-up runs on, let go
+  // Work nobody wants any more is let go of, not waited for (left_running); none of it calls
+  // back into the window system once abandoned.
   retiring_.abandon();
   load_.abandon();
-  proxy_task_.abandon();  // its end wakes the window system: done before that goes
-  save_task_.abandon();   // the same (a save being written is finished first)
+  proxy_task_.abandon();
+  save_task_.finish();  // a save being written is finished first
   publisher_.reset();
   if (imgui_vulkan_started_) ImGui_ImplVulkan_Shutdown();
   if (imgui_started_) {
@@ -598,8 +604,21 @@ void EditorApp::finish_benchmark() {
 namespace hdeform::cli {
 
 int run_editor(const EditorOptions& options) {
-  gui::EditorApp app(options);
-  return app.run();
+  int exit_code = 0;
+  {
+    gui::EditorApp app(options);
+    exit_code = app.run();
+  }
+  // Everything the user's work needs is written and the window is gone. Work let go of may still
+  // run (a set-up's stage cannot stop partway: seconds to a minute at scan resolution), and the
+  // process ends without waiting for it, nor for the static destructors that it may still use.
+  if (left_running::count() > 0) {
+    std::cout.flush();
+    std::cerr.flush();
+    std::fflush(nullptr);
+    std::_Exit(exit_code);
+  }
+  return exit_code;
 }
 
 }  // namespace hdeform::cli

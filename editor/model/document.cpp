@@ -33,11 +33,14 @@ struct Document::Build {
   std::shared_ptr<const Mesh> rest;
   SolveChoice choice;
   std::shared_ptr<const MeshOperators> operators;  // of `rest`, from the last set-up on it, or null
-  // Set once the set-up cannot serve: it stops at its next stage.
-  std::atomic<bool> stop{false};
-  std::mutex mutex;
-  std::string stage;  // with mutex: the set-up's current stage, for the panel
-  BackgroundTask<std::unique_ptr<Deformer>> task;  // last: stops before what it writes to goes
+  // Shared with the set-up's thread, which an abandoned set-up keeps to its next stage.
+  struct Progress {
+    std::atomic<bool> stop{false};  // set once the set-up cannot serve: it stops at its next stage
+    std::mutex mutex;
+    std::string stage;  // with mutex: the set-up's current stage, for the panel
+  };
+  std::shared_ptr<Progress> progress = std::make_shared<Progress>();
+  BackgroundTask<std::unique_ptr<Deformer>> task;
 };
 
 Document::Document(Session session, Mesh base, DeformerOptions options, Publish publish)
@@ -72,7 +75,9 @@ Document::Document(Session session, Mesh base, DeformerOptions options, Publish 
 Document::~Document() {
   stop_pipeline();
   if (build_) {
-    build_->stop = true;  // closing or opening another mesh: nothing of it is wanted
+    // Closing or opening another mesh: nothing of it is wanted, and nobody waits for the stage
+    // in progress to end.
+    build_->progress->stop = true;
     build_->task.abandon();
   }
 }
@@ -357,8 +362,8 @@ Document::SolverState Document::solver_state() const {
 
 std::string Document::solver_message() const {
   if (build_) {
-    std::lock_guard lock(build_->mutex);
-    return build_->stage;
+    std::lock_guard lock(build_->progress->mutex);
+    return build_->progress->stage;
   }
   return failure_;
 }
@@ -404,15 +409,15 @@ void Document::start_build() {
   build_->choice = solve_choice();
   // A new selection on the same rest shape reuses its weights and Laplacian.
   if (operators_rest_ == rest_ && operators_ && operators_fit(*operators_, build_->choice)) build_->operators = operators_;
-  Build* build = build_.get();
   DeformerOptions options = options_;
   options.prepare_refinement = refine_;  // set up with the rest, off the frame loop
   options.refinement = current_stage().refinement_options();
-  build->task.start("set-up", [build, options] {
-    return std::make_unique<Deformer>(*build->rest, build->constraints, build->operators, options, [build](std::string_view stage) {
-      if (build->stop.load()) throw SetUpStopped{};
-      std::lock_guard lock(build->mutex);
-      build->stage = std::string(stage);
+  build_->task.start("set-up", [rest = build_->rest, constraints = build_->constraints, operators = build_->operators, options,
+                                progress = build_->progress] {
+    return std::make_unique<Deformer>(*rest, constraints, operators, options, [progress](std::string_view stage) {
+      if (progress->stop.load()) throw SetUpStopped{};
+      std::lock_guard lock(progress->mutex);
+      progress->stage = std::string(stage);
     });
   });
 }
@@ -425,7 +430,7 @@ void Document::install_build() {
   const bool still_current =
       same_constraints(build->constraints, current_stage().constraints()) && build->rest == rest_ && build->choice == solve_choice();
   if (!still_current) {
-    if (outcome.exception && build->stop.load()) {
+    if (outcome.exception && build->progress->stop.load()) {
       try {
         std::rethrow_exception(outcome.exception);
       } catch (const SetUpStopped&) {
@@ -506,7 +511,7 @@ void Document::poll() {
   // A set-up for another rest shape or solve choice would leave nothing of use (a selection's
   // would leave its operators): it stops at its next stage, so that an undone switch to every
   // vertex of a scan does not hold up the set-up after it for the rest of a long factorization.
-  if (build_ && (build_->rest != rest_ || !(build_->choice == solve_choice()))) build_->stop = true;
+  if (build_ && (build_->rest != rest_ || !(build_->choice == solve_choice()))) build_->progress->stop = true;
   if (build_ || hold_set_up_) return;
   const EditConstraints constraints = current_stage().constraints();
   if (constraints.handles.empty()) {
@@ -558,7 +563,7 @@ bool Document::settled() const {
 
 void Document::close() {
   stop_pipeline();
-  if (build_) build_->stop = true;
+  if (build_) build_->progress->stop = true;
 }
 
 void Document::wait_until_ready() {
