@@ -283,7 +283,7 @@ void MeshRenderer::release_mesh_buffers() {
   }
 }
 
-void MeshRenderer::set_mesh(const Eigen::MatrixXi& triangles, GeometryExchange& geometry, const Bounds& rest, UpAxis up) {
+void MeshRenderer::set_mesh(const Eigen::MatrixXi& triangles, GeometryExchange& geometry, const Bounds& rest, UpAxis up, std::optional<bool> closed) {
   validate_triangles(triangles, static_cast<Eigen::Index>(geometry.vertex_count()), "mesh to draw");
   vkDeviceWaitIdle(context_.device());
   release_mesh_buffers();
@@ -293,7 +293,7 @@ void MeshRenderer::set_mesh(const Eigen::MatrixXi& triangles, GeometryExchange& 
   up_ = up;
   index_count_ = static_cast<uint32_t>(triangles.size());
   indices_ = index_buffer(triangles);
-  closed_ = every_edge_has_its_reverse(triangles, static_cast<Eigen::Index>(vertex_count_));
+  closed_ = closed ? *closed : every_edge_has_its_reverse(triangles, static_cast<Eigen::Index>(vertex_count_));
   for (auto& frame : frames_) {
     frame.geometry = context_.create_buffer(sizeof(float) * 6 * vertex_count_, VK_BUFFER_USAGE_VERTEX_BUFFER_BIT);
     frame.attributes = context_.create_buffer(sizeof(float) * 2 * vertex_count_, VK_BUFFER_USAGE_VERTEX_BUFFER_BIT);
