@@ -39,7 +39,7 @@ int EditorApp::run() {
       quit_on_signal(QuitSignals::received());
       break;
     }
-    const bool busy = (!input_.empty() && !saving()) || dragging_ || benchmark_ || screenshot_requested_ || (transfer_ && transfer_->busy()) ||
+    const bool busy = (!input_.empty() && !saving()) || dragging_ || loaded_to_install_ || benchmark_ || screenshot_requested_ || (transfer_ && transfer_->busy()) ||
                       (document_ && document_->last_published_request() != shown_tag_);
     // A set-up in progress only changes the panel's progress line, which a frame a second shows
     // well enough. Polling drew frame after frame instead, and on a CPU device each frame of a
@@ -224,6 +224,7 @@ void EditorApp::shutdown() {
   // back into the window system once abandoned.
   retiring_.abandon();
   load_.abandon();
+  loaded_to_install_.reset();
   proxy_task_.abandon();
   save_task_.finish();  // a save being written is finished first
   publisher_.reset();

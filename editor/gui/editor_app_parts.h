@@ -228,6 +228,8 @@ class EditorApp {
   // Closes the document (nothing more is published) and lets go of it on a thread of its own.
   void retire_document();
   void install(Loaded loaded_document);
+  // install(), then the problem with the lists given beside the mesh, if any, shown.
+  void install_with_problem(Loaded loaded);
 
   // --up, when given (transfer mode guesses each mesh's without it).
   std::optional<engine::UpAxis> chosen_up_axis() const;
@@ -477,6 +479,7 @@ class EditorApp {
   std::unique_ptr<RecoveryWriter> recovery_;
 
   BackgroundTask<Loaded> load_;  // reading a mesh or session and replaying it
+  std::optional<Loaded> loaded_to_install_;  // read, installed next frame: this one says it is drawn
   BackgroundTask<Eigen::MatrixXi> proxy_task_;  // simplifying the mesh just opened (CPU device)
   BackgroundTask<bool> retiring_;               // letting go of the document another one replaced
   MotionDetail motion_detail_;

@@ -58,7 +58,7 @@ void EditorApp::draw_controls() {
     return;
   }
   ImGui::TextWrapped("%s", !mesh_name_.empty() ? mesh_name_.c_str()
-                                      : load_.running() ? "(loading)"
+                                      : load_.running() || loaded_to_install_ ? "(loading)"
                                       : restore_offer_ ? "Restore the last session? (the question in the middle)"
                                                        : "No mesh open: Open... or drop a mesh file here (OBJ, PLY, OFF, STL)");
   if (document_) ImGui::Text("%ld vertices, %ld triangles", static_cast<long>(document_->vertex_count()), static_cast<long>(document_->rest().triangle_count()));
@@ -369,14 +369,21 @@ void EditorApp::draw_dialogs() {
                           : transfer_work ? transfer_work->second
                           : load_.running() ? load_.seconds()
                                         : (build_started_ != Clock::time_point{} ? seconds_since(build_started_) : 0.0);
-  if (busy && busy_for > kProgressDelay) {
+  if ((busy && busy_for > kProgressDelay) || loaded_to_install_) {
     const char* spinner = "|/-\\";
     const std::string what = saving()        ? save_task_.what()
                              : transfer_work ? transfer_work->first
                              : load_.running() ? load_.what()
-                                           : document_->solver_message();
+                                           : document_ ? document_->solver_message() : std::string();
     char line[512];
-    std::snprintf(line, sizeof line, "%c %s  (%.1f s)", spinner[static_cast<int>(busy_for * 8) % 4], what.c_str(), busy_for);
+    if (loaded_to_install_ && !saving() && !transfer_work) {
+      // The next frame waits for the mesh's first picture, and no line moves meanwhile.
+      const Mesh& mesh = loaded_to_install_->document->rest();
+      std::snprintf(line, sizeof line, "Drawing %s: %lld triangles", std::filesystem::path(loaded_to_install_->session.mesh).filename().c_str(),
+                    static_cast<long long>(mesh.triangle_count()));
+    } else {
+      std::snprintf(line, sizeof line, "%c %s  (%.1f s)", spinner[static_cast<int>(busy_for * 8) % 4], what.c_str(), busy_for);
+    }
     // Sized for this frame's line: an auto-sized window fits the line of the frame before, and
     // while a large mesh is set up a frame comes once a second, so a longer line showed cut off.
     const ImVec2 padding = ImGui::GetStyle().WindowPadding;
