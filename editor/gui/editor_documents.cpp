@@ -219,7 +219,7 @@ void EditorApp::finish_load() {
     return;
   }
   // The frame that installs a mesh waits for its first picture: on a CPU device seconds at scan
-  // resolution (3.3M triangles 2.4–3.3 s, 13M 10–13 s, beside the set-up). Where the load's
+  // resolution (3.3M triangles 2.4–3.3 s, 13M 10–14 s, beside the set-up). Where the load's
   // progress was on screen, one frame first says so, instead of a progress line that stops.
   if (progress_shown) {
     loaded_to_install_ = std::move(*outcome.result);
@@ -344,10 +344,10 @@ void EditorApp::adjust_camera(bool reset_angles) {
     camera_ = engine::Camera::three_quarter_front(engine::Bounds::of(document_->rest().positions), up_axis(), aspect, panel_fraction());
     return;
   }
-  // Fit: the shape as it is on screen, deformed, not the rest shape.
-  engine::Bounds bounds = engine::Bounds::of(document_->rest().positions);
+  // Fit: the shape as it is on screen, deformed, and the rest shape only while nothing is shown.
   // (Not shown_geometry(): fitting needs no picker, whose build would hold this frame up for a
   // second at 3.3 million triangles before the background build has begun.)
+  engine::Bounds bounds;
   if (const engine::GeometrySnapshot* shown = shown_snapshot(); shown != nullptr && !shown->position_normal.empty()) {
     const auto& values = shown->position_normal;
     bounds.min = bounds.max = Eigen::Vector3f(values[0], values[1], values[2]);
@@ -356,6 +356,8 @@ void EditorApp::adjust_camera(bool reset_angles) {
       bounds.min = bounds.min.cwiseMin(p);
       bounds.max = bounds.max.cwiseMax(p);
     }
+  } else {
+    bounds = engine::Bounds::of(document_->rest().positions);
   }
   camera_.covered_left = panel_fraction();
   camera_.fit(bounds, aspect);
