@@ -279,6 +279,24 @@ TEST(Reselection, ReusedOperatorsGiveTheFreshResultBitForBit) {
   EXPECT_THROW(Deformer(other_mesh.mesh, other_mesh.demo_constraints, first.operators()), std::invalid_argument);
 }
 
+// A shared rest mesh is used where it is, not copied (the editor's set-ups share their document's
+// mesh), and solves as a copy of it does, to the bit.
+TEST(Deformer, ASharedRestMeshIsNotCopiedAndSolvesAsACopyDoes) {
+  const auto shape = make_shape(ShapeKind::Cactus, 24);
+  const auto rest = std::make_shared<const Mesh>(shape.mesh);
+  Deformer shared(rest, shape.demo_constraints, nullptr);
+  Deformer copied(shape.mesh, shape.demo_constraints);
+  EXPECT_EQ(&shared.rest(), rest.get());
+  EXPECT_NE(&copied.rest(), &shape.mesh);
+  Eigen::MatrixXd a, b;
+  shared.deform(std::span(&shape.demo_transform, 1), a);
+  copied.deform(std::span(&shape.demo_transform, 1), b);
+  EXPECT_EQ(a, b);
+  EXPECT_EQ(shared.refine(a, 3), copied.refine(b, 3));
+  EXPECT_EQ(a, b);
+  EXPECT_THROW(Deformer(std::shared_ptr<const Mesh>(), shape.demo_constraints, nullptr), std::invalid_argument);
+}
+
 // The same free vertices on the same mesh (a handle vertex made fixed, say): L_ff's pattern is
 // unchanged, so its analysis is taken from the last set-up; the result is the fresh one's.
 TEST(Reselection, TheSameFreeVerticesReuseTheAnalysis) {

@@ -198,6 +198,12 @@ TEST(Session, MalformedSessionsNameTheLineAndTheProblem) {
   expect_session_error(dir,
                        head + " \"current\": {\n  \"fixed\": [5],\n  \"handles\": [\n   {\"vertices\": [6,\n 5],\n    \"transform\": {\"matrix\": [1,0,0,0, 0,1,0,0, 0,0,1,0]}}\n  ]\n }\n}\n",
                        9, "is both fixed and in handle 1");
+  const std::string identity = "\"transform\": {\"matrix\": [1,0,0,0, 0,1,0,0, 0,0,1,0]}";
+  expect_session_error(dir, head + " \"current\": {\n  \"fixed\": [5, 7,\n   5]\n }\n}\n", 7, "current/fixed/2: vertex 5 listed twice");
+  expect_session_error(dir,
+                       head + " \"current\": {\n  \"handles\": [\n   {\"vertices\": [6, 8], " + identity + "},\n   {\"vertices\": [9,\n 8], " +
+                           identity + "}\n  ]\n }\n}\n",
+                       9, "current/handles/1/vertices/1: vertex 8 is both in handle 1 and in handle 2");
   expect_session_error(dir,
                        head + " \"current\": {\n  \"handles\": [\n   {\"vertices\": [6],\n    \"transform\": {\"matrix\": [1,0,0,0, 0,1,0,0, 0,0,0,0]}}\n  ]\n }\n}\n",
                        8, "singular");

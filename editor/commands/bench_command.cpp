@@ -130,7 +130,9 @@ class BenchCommand final : public BatchCommand {
       subdivide_ms += milliseconds_since(subdivide_start);
     }
     add_relief(loaded.mesh, relief_);
-    const Mesh& mesh = loaded.mesh;
+    // Shared by every deformer below, as the editor's set-ups share its document's mesh.
+    shared_mesh_ = std::make_shared<const Mesh>(std::move(loaded.mesh));
+    const Mesh& mesh = *shared_mesh_;
 #ifdef HDEFORM_WITH_ENGINE
     if (render_) {
       progress("rendering benchmark");
@@ -191,7 +193,7 @@ class BenchCommand final : public BatchCommand {
     {
       progress("open and re-selection");
       const auto setup_start = Clock::now();
-      const Deformer opened(mesh, constraints, options_for(default_backend(), default_schedule()));
+      const Deformer opened(shared_mesh_, constraints, nullptr, options_for(default_backend(), default_schedule()));
       report["open_ms"] = read_ms + milliseconds_since(setup_start);
       report["resolution"] = to_string(opened.resolution());
       report["precision"] = to_string(opened.system().factor().precision());
@@ -207,7 +209,7 @@ class BenchCommand final : public BatchCommand {
         EditConstraints reselected = constraints;
         reselected.handles = {std::move(handle)};
         const auto reselect_start = Clock::now();
-        const Deformer deformer(mesh, reselected, opened.operators(), options_for(default_backend(), default_schedule()));
+        const Deformer deformer(shared_mesh_, reselected, opened.operators(), options_for(default_backend(), default_schedule()));
         samples.push_back(milliseconds_since(reselect_start));
       }
       report["reselect_ms"] = to_json(summarize(samples));
@@ -219,7 +221,7 @@ class BenchCommand final : public BatchCommand {
     for (const auto backend : kSolverBackends) {
       if (!backend_available(backend)) continue;
       progress("backend " + std::string(to_string(backend)));
-      Deformer deformer(mesh, constraints, shared_operators_, options_for(backend, default_schedule()));
+      Deformer deformer(shared_mesh_, constraints, shared_operators_, options_for(backend, default_schedule()));
       Eigen::MatrixXd positions;
       const auto update = drag(deformer, std::span(&transform, 1), positions);
       report["backends"][std::string(to_string(backend))] = {
@@ -233,7 +235,7 @@ class BenchCommand final : public BatchCommand {
       if (deformer.system().factor().precision() == FactorPrecision::Single && backend == default_backend()) {
         DeformerOptions in_double = options_for(default_backend(), default_schedule());
         in_double.precision = FactorPrecision::Double;
-        Deformer reference(mesh, constraints, shared_operators_, in_double);
+        Deformer reference(shared_mesh_, constraints, shared_operators_, in_double);
         Eigen::MatrixXd expected;
         drag(reference, std::span(&transform, 1), expected);
         report["single_precision"] = single_precision_report(mesh, deformer, positions, expected);
@@ -257,7 +259,7 @@ class BenchCommand final : public BatchCommand {
       progress("schedule " + name);
       Eigen::MatrixXd positions;
       {
-        Deformer deformer(mesh, constraints, shared_operators_, options_for(default_backend(), schedule));
+        Deformer deformer(shared_mesh_, constraints, shared_operators_, options_for(default_backend(), schedule));
         nlohmann::json stages;
         report["one_handle_update_ms"][name] = to_json(drag(deformer, std::span(&transform, 1), positions, &stages));
         if (schedule == default_schedule()) report["one_handle_stage_ms"] = stages;
@@ -277,7 +279,7 @@ class BenchCommand final : public BatchCommand {
         report["solve_xyz_ms"][name] = to_json(summarize(samples));
       }
       {
-        Deformer deformer(mesh, two_handles, shared_operators_, options_for(default_backend(), schedule));
+        Deformer deformer(shared_mesh_, two_handles, shared_operators_, options_for(default_backend(), schedule));
         nlohmann::json stages;
         report["two_handle_update_ms"][name] = to_json(drag(deformer, two_transforms, positions, &stages));
         if (schedule == default_schedule()) report["two_handle_stage_ms"] = stages;
@@ -292,7 +294,7 @@ class BenchCommand final : public BatchCommand {
     // The update as the editor runs it: posted to the pipeline's thread, one request at a time.
     {
       progress("pipeline");
-      Deformer deformer(mesh, constraints, shared_operators_, options_for(default_backend(), default_schedule()));
+      Deformer deformer(shared_mesh_, constraints, shared_operators_, options_for(default_backend(), default_schedule()));
       std::vector<double> samples;
       UpdatePipeline pipeline(deformer, [&](const UpdatePipeline::Result& result) { samples.push_back(result.update_ms); });
       for (int k = 0; k <= steps_; ++k) {
@@ -337,7 +339,7 @@ class BenchCommand final : public BatchCommand {
   void bench_trace_overhead(const Mesh& mesh, const EditConstraints& constraints, const HandleTransform& transform, nlohmann::json& report,
                             const Progress& progress) const {
     progress("trace overhead");
-    Deformer deformer(mesh, constraints, shared_operators_, options_for(default_backend(), default_schedule()));
+    Deformer deformer(shared_mesh_, constraints, shared_operators_, options_for(default_backend(), default_schedule()));
     Eigen::MatrixXd positions;
     const bool recording = trace_.wanted();
     if (!recording) trace::start(std::size_t{1} << 16);
@@ -379,7 +381,7 @@ class BenchCommand final : public BatchCommand {
     progress("refinement iterations");
     DeformerOptions options = options_for(default_backend(), default_schedule());
     options.prepare_refinement = true;
-    Deformer deformer(mesh, constraints, shared_operators_, options);
+    Deformer deformer(shared_mesh_, constraints, shared_operators_, options);
     Eigen::MatrixXd positions;
     std::map<std::string, std::vector<double>> stage_samples;
     std::vector<double> samples;
@@ -424,12 +426,12 @@ class BenchCommand final : public BatchCommand {
       fresh.prepare_refinement = true;
       const std::string name = accelerate ? "accelerated" : "plain";
       {
-        Deformer cold(mesh, constraints, shared_operators_, fresh);
+        Deformer cold(shared_mesh_, constraints, shared_operators_, fresh);
         cold.deform(std::span(&transform, 1), positions);
         cold.refine(positions, 0);
         convergence[name]["from_paper"] = until_within(cold, kPlainCap);
       }
-      Deformer dragged(mesh, constraints, shared_operators_, fresh);
+      Deformer dragged(shared_mesh_, constraints, shared_operators_, fresh);
       for (int step = 1; step <= kRefineDragSteps; ++step) {
         const HandleTransform at = transform.at_fraction(static_cast<double>(step) / kRefineDragSteps);
         dragged.deform(std::span(&at, 1), positions, step == 1 ? RefinementStart::FromPapersResult : RefinementStart::FromLastEdit);
@@ -458,6 +460,7 @@ class BenchCommand final : public BatchCommand {
   TraceChoice trace_;
   ResolutionChoice resolution_;
   std::string precision_ = std::string(to_string(FactorPrecision::Double));
+  std::shared_ptr<const Mesh> shared_mesh_;  // the mesh benchmarked
   std::shared_ptr<const MeshOperators> shared_operators_;  // multiresolution: the base, built once
   std::string fixed_path_;
   std::string handle_path_;

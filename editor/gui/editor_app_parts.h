@@ -193,11 +193,10 @@ class EditorApp {
       auto files = load();  // (session, mesh) or (session, mesh, a problem with the lists given beside the mesh)
       Loaded loaded;
       loaded.session = std::move(std::get<0>(files));
-      loaded.mesh = std::move(std::get<1>(files));
       if constexpr (std::tuple_size_v<decltype(files)> == 3) loaded.problem = std::move(std::get<2>(files));
       // Replaying applied stages and the checks run here, off the frame loop; the publisher is
-      // attached when the document is installed.
-      loaded.document = std::make_unique<Document>(loaded.session, loaded.mesh, document_options, Document::Publish{});
+      // attached when the document is installed. The document takes the mesh itself.
+      loaded.document = std::make_unique<Document>(loaded.session, std::move(std::get<1>(files)), document_options, Document::Publish{});
       // Restored work is unsaved: Open, a drop and Quit ask before they discard it.
       if (recovered) loaded.document->mark_unsaved();
       loaded.scene = prepare_scene(loaded.document->rest());
@@ -218,7 +217,6 @@ class EditorApp {
 
   struct Loaded {
     Session session;
-    Mesh mesh;
     std::unique_ptr<Document> document;
     std::string problem;  // a list given with the mesh that could not be used (the mesh opened without it)
     PreparedScene scene;

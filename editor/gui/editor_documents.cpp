@@ -124,7 +124,8 @@ void EditorApp::restore_recovery() {
   start_load("the recovered session", [path] {
     SessionSource source;
     Session session = read_session(path, &source);
-    return std::pair{session, load_session_mesh(session, &source)};
+    Mesh mesh = load_session_mesh(session, &source);
+    return std::pair{std::move(session), std::move(mesh)};
   }, true);
 }
 
@@ -136,7 +137,8 @@ void EditorApp::start_requested_document() {
     if (!options.session.empty()) {
       SessionSource source;
       Session session = read_session(options.session, &source);
-      return std::tuple{session, load_session_mesh(session, &source), std::string()};
+      Mesh mesh = load_session_mesh(session, &source);
+      return std::tuple{std::move(session), std::move(mesh), std::string()};
     }
     Session session;
     session.current.refine = options.refine;
@@ -170,7 +172,7 @@ void EditorApp::start_requested_document() {
       problem = std::string(error.what()) + ". " + std::filesystem::path(session.mesh).filename().string() +
                 " is open without the vertex lists given with it: paint them, or open it again with lists that fit.";
     }
-    return std::tuple{session, mesh, problem};
+    return std::tuple{std::move(session), std::move(mesh), std::move(problem)};
   });
 }
 
@@ -429,7 +431,8 @@ void EditorApp::open_now(const std::string& path) {
     start_load(path, [path] {
       SessionSource source;
       Session session = read_session(path, &source);
-      return std::pair{session, load_session_mesh(session, &source)};
+      Mesh mesh = load_session_mesh(session, &source);
+    return std::pair{std::move(session), std::move(mesh)};
     });
     return;
   }
@@ -438,7 +441,8 @@ void EditorApp::open_now(const std::string& path) {
     session.current.refine = refine;
     session.current.refine_settle = kEditorSettle;
     session.mesh = names_builtin_shape(path) ? path : std::filesystem::absolute(path).lexically_normal().string();
-    return std::pair{session, load_session_mesh(session)};
+    Mesh mesh = load_session_mesh(session);
+    return std::pair{std::move(session), std::move(mesh)};
   });
 }
 

@@ -53,7 +53,8 @@ class Document {
   // The same, for work that may outlive the document's next rest shape (or the document).
   std::shared_ptr<const Mesh> shared_rest() const { return rest_; }
   Eigen::Index vertex_count() const { return rest_->vertex_count(); }
-  const VertexAdjacency& adjacency() const { return adjacency_; }
+  // Built on the first call (main thread only).
+  const VertexAdjacency& adjacency() const;
 
   // Per-vertex classes: kFree, kFixed or a handle index; and the region of interest (when empty,
   // the whole mesh).
@@ -232,10 +233,9 @@ class Document {
   void stop_pipeline();
 
   std::string mesh_name_;
-  Mesh base_;
-  std::shared_ptr<const Mesh> rest_;
   std::vector<EditStage> applied_;
-  VertexAdjacency adjacency_;
+  std::shared_ptr<const Mesh> rest_;
+  mutable std::optional<VertexAdjacency> adjacency_;  // see adjacency()
   std::vector<int> labels_;
   std::vector<bool> roi_;
   std::size_t roi_count_ = 0;

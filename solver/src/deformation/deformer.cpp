@@ -59,6 +59,11 @@ void exact_operators(const Mesh& mesh, EliminationOrder order, MeshOperators& op
       [&] { operators.elimination_rank = elimination_ranks(operators.laplacian, order); });
 }
 
+std::shared_ptr<const Mesh> required(std::shared_ptr<const Mesh> rest) {
+  if (!rest) throw std::invalid_argument("Deformer: no rest mesh");
+  return rest;
+}
+
 }  // namespace
 
 // The per-update task graph. One handle:
@@ -208,7 +213,11 @@ Deformer::Deformer(Mesh rest, EditConstraints constraints, DeformerOptions optio
 
 Deformer::Deformer(Mesh rest, EditConstraints constraints, std::shared_ptr<const MeshOperators> operators, DeformerOptions options,
                    const ProgressCallback& progress)
-    : rest_(std::move(rest)), constraints_(std::move(constraints)), options_(options), operators_(std::move(operators)),
+    : Deformer(std::make_shared<const Mesh>(std::move(rest)), std::move(constraints), std::move(operators), options, progress) {}
+
+Deformer::Deformer(std::shared_ptr<const Mesh> rest, EditConstraints constraints, std::shared_ptr<const MeshOperators> operators,
+                   DeformerOptions options, const ProgressCallback& progress)
+    : shared_rest_(required(std::move(rest))), rest_(*shared_rest_), constraints_(std::move(constraints)), options_(options), operators_(std::move(operators)),
       update_arena_(std::make_unique<UpdateArena>()) {
   auto report = [&](std::string_view stage) {
     if (progress) progress(stage);
