@@ -325,6 +325,13 @@ PlyContent read_body(const PlyHeader& header, Body& body) {
     const bool is_face = e == header.face;
     // Nothing to read, however many items it declares (the bytes-left check bounds every other count).
     if (element.properties.empty()) continue;
+    if (is_face) {
+      // Room for triangles, as many as the rest of the body can hold: growing these by doubling
+      // at 3.3 million faces wrote twice the pages, and a fresh page is slow on some hosts.
+      const std::size_t most_corners = std::min(3 * element.count, body.values_left(element.properties[header.corners].value));
+      content.polygons.corners.reserve(most_corners);
+      content.polygons.start.reserve(most_corners / 3 + 1);
+    }
     for (std::size_t item = 0; item < element.count; ++item) {
       std::array<double, 3> point{};
       for (std::size_t p = 0; p < element.properties.size(); ++p) {
