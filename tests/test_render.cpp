@@ -465,6 +465,33 @@ TEST(GeometryPublisher, AProxyPublicationWritesTheProxysVerticesAsAWholeOneWould
   EXPECT_EQ(exchange.acquire()->position_normal, reference);
 }
 
+// Shared triangles publish what copied ones do, and the normals are the area-weighted ones,
+// summed here triangle by triangle (another order, so to float precision).
+TEST(GeometryPublisher, SharedTrianglesPublishAreaWeightedNormals) {
+  const auto mesh = std::make_shared<const Mesh>(make_shape(ShapeKind::Cactus, 24).mesh);
+  Eigen::MatrixXd moved = mesh->positions;
+  for (Eigen::Index v = 0; v < moved.rows(); ++v) moved.row(v) += Eigen::RowVector3d(0.2 * moved(v, 2) * moved(v, 2), 0.0, 0.1 * moved(v, 0));
+  const auto n = static_cast<std::size_t>(mesh->vertex_count());
+  engine::GeometryExchange copied_exchange(n), shared_exchange(n);
+  engine::GeometryPublisher(copied_exchange, mesh->triangles).publish(moved);
+  engine::GeometryPublisher(shared_exchange, std::shared_ptr<const Eigen::MatrixXi>(mesh, &mesh->triangles)).publish(moved);
+  const auto& published = shared_exchange.acquire()->position_normal;
+  EXPECT_EQ(published, copied_exchange.acquire()->position_normal);
+  Eigen::MatrixXd normals = Eigen::MatrixXd::Zero(mesh->vertex_count(), 3);
+  for (Eigen::Index t = 0; t < mesh->triangle_count(); ++t) {
+    const Eigen::Vector3d a = moved.row(mesh->triangles(t, 0)), b = moved.row(mesh->triangles(t, 1)), c = moved.row(mesh->triangles(t, 2));
+    const Eigen::RowVector3d area_normal = (b - a).cross(c - a).transpose();
+    for (int k = 0; k < 3; ++k) normals.row(mesh->triangles(t, k)) += area_normal;
+  }
+  for (Eigen::Index v = 0; v < mesh->vertex_count(); ++v) {
+    const Eigen::RowVector3d expected = normals.row(v).normalized();
+    for (int c = 0; c < 3; ++c) {
+      EXPECT_EQ(published[6 * static_cast<std::size_t>(v) + static_cast<std::size_t>(c)], static_cast<float>(moved(v, c)));
+      EXPECT_NEAR(published[6 * static_cast<std::size_t>(v) + 3 + static_cast<std::size_t>(c)], expected(c), 1e-6) << "vertex " << v;
+    }
+  }
+}
+
 // A snapshot of the proxy's vertices alone is drawn as the proxy whatever the settings: the
 // same picture as the proxy of a whole publication, never the mesh with the other vertices where
 // an older publication left them.

@@ -199,7 +199,7 @@ class EditorApp {
       loaded.document = std::make_unique<Document>(loaded.session, std::move(std::get<1>(files)), document_options, Document::Publish{});
       // Restored work is unsaved: Open, a drop and Quit ask before they discard it.
       if (recovered) loaded.document->mark_unsaved();
-      loaded.scene = prepare_scene(loaded.document->rest());
+      loaded.scene = prepare_scene(loaded.document->shared_rest());
       return loaded;
     }, [] { glfwPostEmptyEvent(); });
   }
@@ -213,7 +213,7 @@ class EditorApp {
     engine::Bounds bounds;
     bool closed = false;
   };
-  static PreparedScene prepare_scene(const Mesh& rest);
+  static PreparedScene prepare_scene(const std::shared_ptr<const Mesh>& rest);
 
   struct Loaded {
     Session session;

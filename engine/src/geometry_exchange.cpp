@@ -28,8 +28,12 @@ const GeometrySnapshot* GeometryExchange::acquire() {
 }
 
 VertexNormals::VertexNormals(const Eigen::MatrixXi& triangles, Eigen::Index vertex_count)
-    : triangles_(triangles), triangle_start_(static_cast<std::size_t>(vertex_count) + 1, 0),
-      face_normals_(static_cast<std::size_t>(triangles.rows())) {
+    : VertexNormals(std::make_shared<const Eigen::MatrixXi>(triangles), vertex_count) {}
+
+VertexNormals::VertexNormals(std::shared_ptr<const Eigen::MatrixXi> shared_triangles, Eigen::Index vertex_count)
+    : triangles_(std::move(shared_triangles)), triangle_start_(static_cast<std::size_t>(vertex_count) + 1, 0),
+      face_normals_(static_cast<std::size_t>(triangles_->rows())) {
+  const Eigen::MatrixXi& triangles = *triangles_;
   validate_triangles(triangles, vertex_count, "mesh to draw");
   for (Eigen::Index t = 0; t < triangles.rows(); ++t) {
     for (int k = 0; k < 3; ++k) ++triangle_start_[static_cast<std::size_t>(triangles(t, k)) + 1];
@@ -64,8 +68,8 @@ Eigen::Vector3d face_normal(const Eigen::MatrixXd& positions, const Eigen::Matri
 }  // namespace
 
 void VertexNormals::write(const Eigen::MatrixXd& positions, GeometrySnapshot& snapshot) {
-  tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, triangles_.rows(), 4096), [&](const auto& range) {
-    for (Eigen::Index t = range.begin(); t != range.end(); ++t) face_normals_[static_cast<std::size_t>(t)] = face_normal(positions, triangles_, t);
+  tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, triangles_->rows(), 4096), [&](const auto& range) {
+    for (Eigen::Index t = range.begin(); t != range.end(); ++t) face_normals_[static_cast<std::size_t>(t)] = face_normal(positions, *triangles_, t);
   });
   float* out = snapshot.position_normal.data();
   tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, positions.rows(), 4096), [&](const auto& range) {
@@ -94,7 +98,7 @@ void VertexNormals::write(const Eigen::MatrixXd& positions, const Subset& subset
   const auto& triangles = subset.triangles;
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, triangles.size(), 4096), [&](const auto& range) {
     for (std::size_t i = range.begin(); i != range.end(); ++i) {
-      face_normals_[static_cast<std::size_t>(triangles[i])] = face_normal(positions, triangles_, triangles[i]);
+      face_normals_[static_cast<std::size_t>(triangles[i])] = face_normal(positions, *triangles_, triangles[i]);
     }
   });
   const auto& vertices = *subset.vertices;
@@ -107,6 +111,9 @@ void VertexNormals::write(const Eigen::MatrixXd& positions, const Subset& subset
 
 GeometryPublisher::GeometryPublisher(GeometryExchange& exchange, const Eigen::MatrixXi& triangles)
     : exchange_(exchange), normals_(triangles, static_cast<Eigen::Index>(exchange.vertex_count())) {}
+
+GeometryPublisher::GeometryPublisher(GeometryExchange& exchange, std::shared_ptr<const Eigen::MatrixXi> triangles)
+    : exchange_(exchange), normals_(std::move(triangles), static_cast<Eigen::Index>(exchange.vertex_count())) {}
 
 void GeometryPublisher::set_proxy(const Eigen::MatrixXi& proxy_triangles) {
   validate_triangles(proxy_triangles, static_cast<Eigen::Index>(exchange_.vertex_count()), "proxy to publish");
