@@ -20,7 +20,9 @@
 // faulted its factor in again; jemalloc keeps what was freed for the next allocation. Huge pages
 // are left to the system's setting: asking for them (thp:always, until then) made opening the
 // Buddha 515-618 ms against 268-334 ms without, for 10-20 ms more in a factorization that reuses
-// memory. Freed pages unused for 30 s go back to the kernel: keeping them for good raised the
+// memory (on the host of 2026-12-07 the other way round: opening the 3.3M Buddha 5.0 s with them
+// against 7.5 s; MALLOC_CONF=thp:always is the user's switch, docs/performance.md "First
+// writes"). Freed pages unused for 30 s go back to the kernel: keeping them for good raised the
 // peak of `bench --subdivide 1` (two 822K-triangle deformers during re-selection) from 1.27 to
 // 1.69 GB.
 extern "C" {
