@@ -39,6 +39,33 @@ class DocumentTest : public ::testing::Test {
   std::atomic<int> publications{0};
 };
 
+// The adjacency is each vertex's edge neighbours, built on first use or beforehand on a thread of
+// its own; checked against the triangles' edges, collected here.
+TEST_F(DocumentTest, TheAdjacencyIsTheMeshsEdgesBuiltOnUseOrBeforehand) {
+  std::vector<std::set<int>> expected(static_cast<std::size_t>(shape.mesh.vertex_count()));
+  for (Eigen::Index t = 0; t < shape.mesh.triangle_count(); ++t) {
+    for (int k = 0; k < 3; ++k) {
+      const int a = shape.mesh.triangles(t, k), b = shape.mesh.triangles(t, (k + 1) % 3);
+      expected[static_cast<std::size_t>(a)].insert(b);
+      expected[static_cast<std::size_t>(b)].insert(a);
+    }
+  }
+  auto check = [&](const cli::VertexAdjacency& adjacency) {
+    ASSERT_EQ(adjacency.vertex_count(), expected.size());
+    for (std::size_t v = 0; v < expected.size(); ++v) {
+      const auto listed = adjacency.neighbours(static_cast<int>(v));
+      EXPECT_EQ(std::vector<int>(listed.begin(), listed.end()), std::vector<int>(expected[v].begin(), expected[v].end())) << "vertex " << v;
+    }
+  };
+  check(document->adjacency());
+  cli::Session session;
+  session.mesh = "shape:cactus:24";
+  cli::Document prepared(session, shape.mesh, DeformerOptions{}, {});
+  prepared.prepare_adjacency();
+  prepared.prepare_adjacency();  // once is enough
+  check(prepared.adjacency());
+}
+
 TEST_F(DocumentTest, PaintingKeepsFixedAndHandlesExclusiveAndUndoes) {
   const auto& fixed = shape.demo_constraints.fixed;
   const auto& handle = shape.demo_constraints.handles[0];

@@ -328,11 +328,12 @@ void EditorApp::finish_proxy() {
 
 void EditorApp::prepare_picking() {
   // Once the cores are free of the proxy, the solver's set-up and a drag or its refinement, so as
-  // not to slow them.
-  if (!document_ || picker_.prepared() || proxy_task_.running() || dragging_ || benchmark_) return;
+  // not to slow them: the picker, and the adjacency that Grow, Shrink and Connected use.
+  if (!document_ || proxy_task_.running() || dragging_ || benchmark_) return;
   const auto state = document_->solver_state();
   if (state == Document::SolverState::Building || (state == Document::SolverState::Ready && !document_->settled())) return;
-  picker_.prepare(document_->shared_rest());
+  if (!picker_.prepared()) picker_.prepare(document_->shared_rest());
+  document_->prepare_adjacency();
 }
 
 float EditorApp::panel_fraction() const {

@@ -53,8 +53,12 @@ class Document {
   // The same, for work that may outlive the document's next rest shape (or the document).
   std::shared_ptr<const Mesh> shared_rest() const { return rest_; }
   Eigen::Index vertex_count() const { return rest_->vertex_count(); }
-  // Built on the first call (main thread only).
+  // Built on the first call, or taken from prepare_adjacency()'s build (main thread only).
   const VertexAdjacency& adjacency() const;
+  // Builds the adjacency on a thread of its own, unless it is built or being built: the editor
+  // asks once the cores are free, so that neither opening a scan nor the first Grow waits for it
+  // (0.43 s at 3.3 million triangles).
+  void prepare_adjacency();
 
   // Per-vertex classes: kFree, kFixed or a handle index; and the region of interest (when empty,
   // the whole mesh).
@@ -215,6 +219,7 @@ class Document {
     std::string what;  // the step that led to this state
   };
   struct Build;
+  struct AdjacencyBuild;
 
   EditStage current_stage() const;
   void load_stage(const EditStage& stage);
@@ -236,6 +241,7 @@ class Document {
   std::vector<EditStage> applied_;
   std::shared_ptr<const Mesh> rest_;
   mutable std::optional<VertexAdjacency> adjacency_;  // see adjacency()
+  mutable std::unique_ptr<AdjacencyBuild> adjacency_build_;
   std::vector<int> labels_;
   std::vector<bool> roi_;
   std::size_t roi_count_ = 0;
