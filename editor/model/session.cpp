@@ -368,11 +368,14 @@ void check_session_against_mesh(const Session& session, Eigen::Index vertex_coun
 
 Mesh load_session_mesh(const Session& session, const SessionSource* session_source) {
   if (session_source != nullptr) {
+    Mesh mesh;
     try {
-      return load_session_mesh(session);
+      mesh = load_session_mesh(session);
     } catch (const InputError& error) {
       throw InputError(session_source->where("/mesh") + ": the session's mesh: " + error.what());
     }
+    check_session_against_mesh(session, mesh.vertex_count(), *session_source);
+    return mesh;
   }
   if (names_builtin_shape(session.mesh)) {
     try {

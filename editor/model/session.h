@@ -87,7 +87,8 @@ void write_session(const std::filesystem::path& path, const Session& session);
 void check_session_against_mesh(const Session& session, Eigen::Index vertex_count, const SessionSource& source);
 
 // The session's base mesh (an OBJ, or a built-in shape). With `source`, a problem also names the
-// session file's line.
+// session file's line, and the session's vertex lists are checked against the mesh
+// (check_session_against_mesh), so that a list that does not fit names its line too.
 Mesh load_session_mesh(const Session& session, const SessionSource* source = nullptr);
 
 // A stage's result as every saved or applied mesh is computed, in the editor and by `hdeform edit
