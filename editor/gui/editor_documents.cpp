@@ -435,7 +435,7 @@ void EditorApp::open_now(const std::string& path) {
       SessionSource source;
       Session session = read_session(path, &source);
       Mesh mesh = load_session_mesh(session, &source);
-    return std::pair{std::move(session), std::move(mesh)};
+      return std::pair{std::move(session), std::move(mesh)};
     });
     return;
   }

@@ -60,7 +60,7 @@ Document::Document(Session session, Mesh base, DeformerOptions options, Publish 
   session.precision = options_.precision;
   // The mesh is moved, not copied: at 3.3 million triangles each copy is 79 MB of fresh pages,
   // whose first writes cost this kind of host 0.2-0.3 s.
-  validate_mesh(base, mesh_name_);
+  validate_mesh(base, session.mesh.empty() ? "session mesh" : session.mesh);
   auto rest = std::make_shared<Mesh>(std::move(base));
   if (!session.applied.empty()) {
     Session applied_only = session;
