@@ -287,8 +287,8 @@ class BenchCommand final : public BatchCommand {
     }
 
     if (subdivide_ == 0) {
-      bench_refinement(mesh, constraints, transform, report, progress);
-      bench_trace_overhead(mesh, constraints, transform, report, progress);
+      bench_refinement(constraints, transform, report, progress);
+      bench_trace_overhead(constraints, transform, report, progress);
     }
 
     // The update as the editor runs it: posted to the pipeline's thread, one request at a time.
@@ -336,7 +336,8 @@ class BenchCommand final : public BatchCommand {
   // What recording a trace costs a drag update: medians with the recorder off and on, in
   // alternating blocks (a recording of --trace's own goes on; otherwise a scratch one is made and
   // dropped).
-  void bench_trace_overhead(const Mesh& mesh, const EditConstraints& constraints, const HandleTransform& transform, nlohmann::json& report,
+  // On shared_mesh_.
+  void bench_trace_overhead(const EditConstraints& constraints, const HandleTransform& transform, nlohmann::json& report,
                             const Progress& progress) const {
     progress("trace overhead");
     Deformer deformer(shared_mesh_, constraints, shared_operators_, options_for(default_backend(), default_schedule()));
@@ -375,7 +376,8 @@ class BenchCommand final : public BatchCommand {
   // (kRefineDragSteps updates with kRefineDragIterations iterations each, as `edit --steps 10
   // --refine 5`) and a cold start from the paper's result take to come within 1% of the converged
   // energy, accelerated and plain.
-  void bench_refinement(const Mesh& mesh, const EditConstraints& constraints, const HandleTransform& transform, nlohmann::json& report,
+  // On shared_mesh_.
+  void bench_refinement(const EditConstraints& constraints, const HandleTransform& transform, nlohmann::json& report,
                         const Progress& progress) const {
     constexpr int kRefineDragSteps = 10, kRefineDragIterations = 5, kPlainCap = 3000;
     progress("refinement iterations");
