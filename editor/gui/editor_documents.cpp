@@ -7,6 +7,17 @@
 
 namespace hdeform::cli::gui {
 
+namespace {
+// A session file and its mesh, the session's lists checked against the mesh: every problem names
+// the file's line. The mesh is moved out, never copied (79 MB at 3.3 million triangles).
+std::pair<Session, Mesh> read_session_and_mesh(const std::string& path) {
+  SessionSource source;
+  Session session = read_session(path, &source);
+  Mesh mesh = load_session_mesh(session, &source);
+  return {std::move(session), std::move(mesh)};
+}
+}  // namespace
+
 void EditorApp::start_from_options() {
   if (!options_.transfer.source_rest.empty() || !options_.transfer.target.empty()) {
     set_mode(Mode::Transfer);
@@ -121,12 +132,7 @@ void EditorApp::answer_restore(RestoreChoice choice) {
 
 void EditorApp::restore_recovery() {
   const auto path = recovery_->path();
-  start_load("the recovered session", [path] {
-    SessionSource source;
-    Session session = read_session(path, &source);
-    Mesh mesh = load_session_mesh(session, &source);
-    return std::pair{std::move(session), std::move(mesh)};
-  }, true);
+  start_load("the recovered session", [path] { return read_session_and_mesh(path); }, true);
 }
 
 void EditorApp::start_requested_document() {
@@ -135,9 +141,7 @@ void EditorApp::start_requested_document() {
   const std::string what = !options.session.empty() ? options.session : options.mesh.empty() ? std::string("the cactus") : options.mesh;
   start_load(what, [options] {
     if (!options.session.empty()) {
-      SessionSource source;
-      Session session = read_session(options.session, &source);
-      Mesh mesh = load_session_mesh(session, &source);
+      auto [session, mesh] = read_session_and_mesh(options.session);
       return std::tuple{std::move(session), std::move(mesh), std::string()};
     }
     Session session;
@@ -431,12 +435,7 @@ void EditorApp::open_path(const std::string& path) { ask_or_run({PendingAction::
 void EditorApp::open_now(const std::string& path) {
   last_open_request_ = path;
   if (path.ends_with(".json")) {
-    start_load(path, [path] {
-      SessionSource source;
-      Session session = read_session(path, &source);
-      Mesh mesh = load_session_mesh(session, &source);
-      return std::pair{std::move(session), std::move(mesh)};
-    });
+    start_load(path, [path] { return read_session_and_mesh(path); });
     return;
   }
   start_load(path, [path, refine = options_.refine] {
