@@ -154,6 +154,7 @@ class BenchCommand final : public BatchCommand {
                              {"triangles", mesh.triangle_count()},
                              {"threads", solver.effective_threads()},
                              {"allocator", allocator_name()},
+                             {"allocator_settings", allocator_settings()},
                              {"steps", steps_},
                              {"elimination_order", to_string(elimination_order_for(mesh.vertex_count()))},
                              {"read_ms", read_ms}};

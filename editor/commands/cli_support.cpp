@@ -282,6 +282,23 @@ std::string allocator_name() {
   return "jemalloc " + std::string(version);
 }
 
+nlohmann::json allocator_settings() {
+  if (mallctl == nullptr) return nlohmann::json::object();
+  nlohmann::json settings = nlohmann::json::object();
+  const auto read_number = [&](const char* name, const char* key) {
+    ssize_t value = 0;
+    std::size_t size = sizeof(value);
+    if (mallctl(name, static_cast<void*>(&value), &size, nullptr, 0) == 0) settings[key] = value;
+  };
+  read_number("opt.dirty_decay_ms", "dirty_decay_ms");
+  read_number("opt.muzzy_decay_ms", "muzzy_decay_ms");
+  read_number("opt.lg_extent_max_active_fit", "lg_extent_max_active_fit");
+  const char* thp = nullptr;
+  std::size_t size = sizeof(thp);
+  if (mallctl("opt.thp", static_cast<void*>(&thp), &size, nullptr, 0) == 0 && thp != nullptr) settings["thp"] = thp;
+  return settings;
+}
+
 void print_json_line(const nlohmann::json& value) {
   // Whole lines, also when the editor's threads report at once.
   static std::mutex mutex;

@@ -152,6 +152,9 @@ double resident_mb();
 // The allocator this process runs with: "jemalloc VERSION" when it was linked or preloaded,
 // else "glibc" (set-up times depend on it: see editor/main.cpp).
 std::string allocator_name();
+// The allocator's settings that benchmark figures depend on (editor/main.cpp says why each is
+// set): decay times, how far a free range is split, huge pages. Empty for glibc.
+nlohmann::json allocator_settings();
 
 // Exactly one JSON object on one line of stdout (safe from any thread).
 void print_json_line(const nlohmann::json& value);

@@ -92,7 +92,11 @@ nlohmann::json bench_rendering(const Mesh& mesh, const EditConstraints& constrai
 
   run_frames(5);  // warm-up
   const double cpu_start = process_cpu_ms();
+  const auto still_start = Clock::now();
   const Summary still = run_frames(options.frames);
+  // With frames in flight one interval may be short and the next long; the whole run's wall time
+  // per frame is the rate the device draws at.
+  const double wall_per_frame = milliseconds_since(still_start) / options.frames;
   const double cpu_per_frame = (process_cpu_ms() - cpu_start) / options.frames;
 
   // The same while a solver thread drags the handle back and forth and publishes every update.
@@ -144,11 +148,14 @@ nlohmann::json bench_rendering(const Mesh& mesh, const EditConstraints& constrai
   }
 
   return {{"device", context.device_name()},
+          {"allocator", allocator_name()},
+          {"allocator_settings", allocator_settings()},
           {"width", shot.width},
           {"height", shot.height},
           {"samples", static_cast<int>(target.format().samples)},
           {"frames", options.frames},
           {"frame_ms", to_json(still)},
+          {"frame_wall_ms", std::round(wall_per_frame * 1000.0) / 1000.0},
           {"frame_cpu_ms", std::round(cpu_per_frame * 1000.0) / 1000.0},
           {"frame_ms_while_dragging", to_json(dragging)},
           {"solver_updates_per_second_while_rendering", updates.load() / drag_seconds},
