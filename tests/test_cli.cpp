@@ -92,6 +92,33 @@ TEST_F(Cli, UsageErrorsExitWithTwo) {
 
 // Where it solves: said in the report, chosen on the command line or by the session, and the
 // session's replay writes what the same options write.
+// The allocator's settings are what editor/main.cpp asks for (a misspelt setting is ignored with
+// a warning, and lavapipe's frames of a scan then take five times as long), and the user's
+// MALLOC_CONF still overrides them. Builds without jemalloc report none.
+TEST_F(Cli, BenchReportsTheAllocatorsSettingsAndTheUsersOverrideWins) {
+  const auto built = run(dir, "bench --shape cactus --resolution 12 --steps 3 --quiet");
+  ASSERT_EQ(built.exit_code, 0) << built.err;
+  const auto report = nlohmann::json::parse(built.out);
+  const auto& settings = report["allocator_settings"];
+  if (report["allocator"] == "glibc") {
+    EXPECT_TRUE(settings.empty()) << settings;
+    return;
+  }
+  EXPECT_FALSE(contains(built.err, "<jemalloc>")) << built.err;
+  EXPECT_EQ(settings["lg_extent_max_active_fit"], 16) << settings;
+  EXPECT_EQ(settings["dirty_decay_ms"], 30000) << settings;
+  EXPECT_EQ(settings["muzzy_decay_ms"], -1) << settings;
+  EXPECT_EQ(settings["thp"], "default") << settings;
+  const auto overridden = test::run_command("MALLOC_CONF=lg_extent_max_active_fit:6,thp:always " + std::string(HDEFORM_EXECUTABLE) +
+                                                " bench --shape cactus --resolution 12 --steps 3 --quiet",
+                                            dir.path());
+  ASSERT_EQ(overridden.exit_code, 0) << overridden.err;
+  const auto overridden_settings = nlohmann::json::parse(overridden.out)["allocator_settings"];
+  EXPECT_EQ(overridden_settings["lg_extent_max_active_fit"], 6) << overridden_settings;
+  EXPECT_EQ(overridden_settings["thp"], "always") << overridden_settings;
+  EXPECT_EQ(overridden_settings["muzzy_decay_ms"], -1) << overridden_settings;
+}
+
 TEST_F(Cli, MultiresolutionOnTheCommandLineAndInASession) {
   const auto multi = run(dir, "edit --shape cactus --multiresolution --base-vertices 600 --refine 3 --out " + path("multi.obj"));
   ASSERT_EQ(multi.exit_code, 0) << multi.err;
