@@ -20,7 +20,7 @@
 // re-selection in the editor or the bench faulted its factor in again; jemalloc keeps what was
 // freed for the next allocation, if told to:
 // - lg_extent_max_active_fit: lavapipe bins a frame's triangles into blocks of about 80 KB (over
-//   10,000 of them for a frame of the 3.3M Buddha) and frees them all when the frame is drawn.
+//   10,000 of them for a frame of the 3.3M Buddha) and frees them as their triangles are drawn.
 //   jemalloc coalesces the freed blocks and by default will not split a free range more than 64
 //   times the request, so each frame's blocks came from fresh pages: a frame of the 3.3M Buddha
 //   took 0.87-1.22 s (`bench --render`, median), of the Buddha 61-107 ms. Allowing 2^16 times
