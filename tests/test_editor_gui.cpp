@@ -345,7 +345,13 @@ TEST_F(EditorGui, RecoveryFileSurvivesKillNineAtRandomMoments) {
     std::cerr << "round " << round << " (seed " << seed << "): killed after " << kill_after.count() << " ms, " << announced.size()
               << " states announced so far\n";
     if (!std::filesystem::exists(recovery_file)) {
-      EXPECT_TRUE(announced.empty()) << "round " << round << ": the recovery file is gone although states were announced";
+      // A state is announced just before its write, so a kill right after the first announcement
+      // (a slow start under a sanitizer) can leave no file yet; one announced earlier cannot.
+      for (const auto& state : announced) {
+        EXPECT_GT(state.received, killed - kAtMostLost) << "round " << round << ": the recovery file is gone although a state was announced "
+                                                        << std::chrono::duration_cast<std::chrono::milliseconds>(killed - state.received).count()
+                                                        << " ms before the kill";
+      }
       continue;
     }
     cli::Session recovered;
