@@ -90,8 +90,6 @@ TEST_F(Cli, UsageErrorsExitWithTwo) {
   EXPECT_EQ(run(dir, "edit --shape cactus --refine auto --refine-settle 2 --out " + path("x.obj")).exit_code, 2);
 }
 
-// Where it solves: said in the report, chosen on the command line or by the session, and the
-// session's replay writes what the same options write.
 // The allocator's settings are what editor/main.cpp asks for (a misspelt setting is ignored with
 // a warning, and lavapipe's frames of a scan then take five times as long), and the user's
 // MALLOC_CONF still overrides them. Builds without jemalloc report none.
@@ -119,6 +117,8 @@ TEST_F(Cli, BenchReportsTheAllocatorsSettingsAndTheUsersOverrideWins) {
   EXPECT_EQ(overridden_settings["muzzy_decay_ms"], -1) << overridden_settings;
 }
 
+// Where it solves: said in the report, chosen on the command line or by the session, and the
+// session's replay writes what the same options write.
 TEST_F(Cli, MultiresolutionOnTheCommandLineAndInASession) {
   const auto multi = run(dir, "edit --shape cactus --multiresolution --base-vertices 600 --refine 3 --out " + path("multi.obj"));
   ASSERT_EQ(multi.exit_code, 0) << multi.err;
