@@ -24,7 +24,8 @@
 //   jemalloc coalesces the freed blocks and by default will not split a free range more than 64
 //   times the request, so each frame's blocks came from fresh pages: a frame of the 3.3M Buddha
 //   took 0.87-1.22 s (`bench --render`, median), of the Buddha 61-107 ms. Allowing 2^16 times
-//   the request serves them from the last frame's memory: 0.20-0.23 s and 28-30 ms.
+//   the request serves them from the last frame's memory; with the next setting too, 0.20-0.23 s
+//   and 28-30 ms (the split alone: 0.45-0.64 s at 3.3M, docs/performance.md).
 // - Freed pages unused for 30 s are offered back to the kernel (MADV_FREE), which takes them when
 //   it needs memory; until then they count as resident. Forcing them out (muzzy_decay_ms:0, until
 //   2026-12-07) left the frames 1.6 to 3 times as long, whatever the decay time, because a

@@ -91,7 +91,7 @@ TEST_F(Cli, UsageErrorsExitWithTwo) {
 }
 
 // The allocator's settings are what editor/main.cpp asks for (a misspelt setting is ignored with
-// a warning, and lavapipe's frames of a scan then take five times as long), and the user's
+// a warning, and lavapipe's frames of a scan then take four to six times as long), and the user's
 // MALLOC_CONF still overrides them. Builds without jemalloc report none.
 TEST_F(Cli, BenchReportsTheAllocatorsSettingsAndTheUsersOverrideWins) {
   const auto built = run(dir, "bench --shape cactus --resolution 12 --steps 3 --quiet");
