@@ -69,7 +69,8 @@ TEST_F(EditorGui, PaintDragAndSaveGiveTheBatchReplayAndTheScreenShowsTheOffscree
 // On a mesh large enough for a proxy (lavapipe), a drag publishes only the proxy's vertices, and
 // the drag's end publishes the whole shape again (without refinement, whose iterations would
 // publish it anyway): the timeline says which was published when, and the screen then shows the
-// whole saved mesh, as the offscreen renderer draws it.
+// whole saved mesh, as the offscreen renderer draws it. Its still pictures are drawn in slices
+// (--slice-triangles, as a scan's are), and the last one, so assembled, is that picture.
 TEST_F(EditorGui, ADragPublishesTheProxysVerticesAndTheShapeIsWholeAfterIt) {
   shape = make_shape(ShapeKind::Cactus, 128);
   ASSERT_GT(shape.mesh.triangle_count(), 2 * engine::kProxyTriangles) << "too small for a proxy";
@@ -79,7 +80,7 @@ TEST_F(EditorGui, ADragPublishesTheProxysVerticesAndTheShapeIsWholeAfterIt) {
                                                     kPanelWidth / static_cast<float>(kWidth));
   auto arguments = editor_arguments("no");
   arguments.front() = dir.file("large.obj").string();
-  arguments.insert(arguments.end(), {"--no-refine", "--trace", dir.file("trace.json").string()});
+  arguments.insert(arguments.end(), {"--no-refine", "--slice-triangles", "20000", "--trace", dir.file("trace.json").string()});
   Editor editor(arguments);
   editor.wait_for("opened");
   editor.wait_for("proxy");
@@ -104,6 +105,7 @@ TEST_F(EditorGui, ADragPublishesTheProxysVerticesAndTheShapeIsWholeAfterIt) {
     };
     EXPECT_GT(latest(whole), latest(partial)) << "the drag's end was not published whole";
   }
+  EXPECT_FALSE(test::named(events, "scene pass, a slice").empty()) << "no picture was drawn in slices";
 
   const Mesh result = read_obj(saved["obj"].get<std::string>());
   const auto session = cli::read_session(saved["session"].get<std::string>());

@@ -16,6 +16,7 @@
 #include "gui/input_queue.h"
 #include "gui/motion_detail.h"
 #include "gui/pose_editor.h"
+#include "gui/scene_slices.h"
 #include "gui/view_navigation.h"
 
 namespace hdeform::cli {
@@ -254,6 +255,48 @@ TEST(MotionDetail, TheProxyWhileMovingTheMeshOnceAtRest) {
   detail.enable(false);
   EXPECT_FALSE(detail.proxy(start + 510ms));
   EXPECT_FALSE(detail.until_rest(start + 510ms));
+}
+
+// A scan's still picture in slices of at most the given triangles, each slice in turn while the
+// scene stays the same, nothing once it is shown; whole while the view moves over a picture
+// shown, and whole when it replaces an unfinished one (a scene that keeps changing is still drawn).
+TEST(SceneSlices, AStillPictureInSlicesAMovingOneWhole) {
+  EXPECT_EQ(scene_slices(3'290'496, 1'000'000), 4);
+  EXPECT_EQ(scene_slices(3'000'000, 1'000'000), 3);
+  EXPECT_EQ(scene_slices(1'000'000, 1'000'000), 1);
+  EXPECT_EQ(scene_slices(13'161'984, 1'000'000), 14);
+  EXPECT_EQ(scene_slices(13'161'984, 0), 1) << "slices off";
+  EXPECT_EQ(scene_slices(0, 1'000'000), 1);
+
+  constexpr std::size_t kPerSlice = 1'000'000;
+  SceneState scan{.same_scene = false, .shown = true, .next_slice = 0, .slices = 0, .moving = false, .triangles = 3'290'496};
+  EXPECT_EQ(next_scene_slice(scan, kPerSlice), (SceneSlice{0, 4})) << "a new still picture";
+  scan.same_scene = true;
+  scan.next_slice = 1;
+  scan.slices = 4;
+  EXPECT_EQ(next_scene_slice(scan, kPerSlice), (SceneSlice{1, 4})) << "the next slice while nothing changes";
+  scan.moving = true;
+  EXPECT_EQ(next_scene_slice(scan, kPerSlice), (SceneSlice{1, 4})) << "the same scene: the picture goes on";
+  scan.same_scene = false;
+  EXPECT_EQ(next_scene_slice(scan, kPerSlice), (SceneSlice{0, 1})) << "changed while moving: whole";
+  scan.moving = false;
+  EXPECT_EQ(next_scene_slice(scan, kPerSlice), (SceneSlice{0, 1})) << "replacing an unfinished picture: whole";
+  scan.slices = scan.next_slice = 0;
+  EXPECT_EQ(next_scene_slice(scan, kPerSlice), (SceneSlice{0, 4})) << "a still picture again";
+  scan.same_scene = true;
+  EXPECT_EQ(next_scene_slice(scan, kPerSlice), std::nullopt) << "shown, and nothing changed";
+  scan.shown = false;
+  EXPECT_EQ(next_scene_slice(scan, kPerSlice), (SceneSlice{0, 4})) << "nothing shown (a new size)";
+  scan.same_scene = false;
+  scan.moving = true;
+  EXPECT_EQ(next_scene_slice(scan, kPerSlice), (SceneSlice{0, 4})) << "the first picture, even of a moving view";
+  scan.triangles = 23'645;  // the proxy
+  scan.shown = true;
+  EXPECT_EQ(next_scene_slice(scan, kPerSlice), (SceneSlice{0, 1}));
+  scan.moving = false;
+  EXPECT_EQ(next_scene_slice(scan, kPerSlice), (SceneSlice{0, 1})) << "small enough for one slice";
+  scan.triangles = 3'290'496;
+  EXPECT_EQ(next_scene_slice(scan, 0), (SceneSlice{0, 1})) << "slices off";
 }
 
 TEST(Gizmo, AnAxisDragMovesAlongThatAxisOnlyAndByWhatTheCursorCovers) {

@@ -4,7 +4,9 @@
 #include <GLFW/glfw3.h>
 
 #include <chrono>
+#include <cmath>
 #include <cstdio>
+#include <optional>
 #include <thread>
 #include <vector>
 
@@ -76,15 +78,36 @@ class Window : public ::testing::Test {
 
 // The cactus drawn into the window: a swapchain, frame slots and a renderer.
 struct WindowDrawing {
-  WindowDrawing(const engine::VulkanContext& context, std::function<VkExtent2D()> size, bool present_on_thread)
+  WindowDrawing(const engine::VulkanContext& context, std::function<VkExtent2D()> size, bool present_on_thread, int samples = 4)
       : shape(make_shape(ShapeKind::Cactus, 32)),
-        target(context, std::move(size), 4, false, present_on_thread),
+        target(context, std::move(size), samples, false, present_on_thread),
         slots(context),
         renderer(context, target.render_pass(), target.format(), slots.count()),
         exchange(static_cast<std::size_t>(shape.mesh.vertex_count())),
         bounds(engine::Bounds::of(shape.mesh.positions)) {
     engine::GeometryPublisher(exchange, shape.mesh.triangles).publish(shape.mesh.positions);
     renderer.set_mesh(shape.mesh.triangles, exchange, bounds, engine::UpAxis::Z);
+  }
+
+  // One frame that draws `slice` of the picture (none: no scene pass), read back.
+  engine::Pixels draw_slice(std::optional<engine::DrawSlice> slice) {
+    auto& slot = slots.begin();
+    uint32_t image = 0;
+    EXPECT_TRUE(target.acquire(slot.image_available, image));
+    const VkExtent2D extent = target.extent();
+    const auto camera = engine::Camera::three_quarter_front(bounds, engine::UpAxis::Z, float(extent.width) / float(extent.height));
+    renderer.prepare(slot.index, camera, settings, extent);
+    if (slice) {
+      target.begin_scene(slot.commands, slice->index, slice->count);
+      renderer.record(slot.commands, slot.index, extent, *slice);
+      target.end_scene(slot.commands);
+    }
+    target.begin(slot.commands, image);
+    target.end(slot.commands, image, true);
+    slots.submit(slot, slot.image_available, target.render_finished(image));
+    target.present(image);
+    slots.wait_all();
+    return target.read_last_image();
   }
 
   // Draws `frames` frames; the last one is kept for reading back. Returns false if no frame
@@ -145,6 +168,10 @@ TEST_F(Window, ShowsWhatTheOffscreenTargetShowsAndSurvivesResizeAndMinimise) {
   WindowDrawing drawing(*context, [this] { return framebuffer_size(); }, false);
   auto draw = [&](int frames) { return drawing.draw(frames); };
   auto& target = drawing.target;
+  // Multisampled, a picture is drawn whole.
+  if (target.format().samples != VK_SAMPLE_COUNT_1_BIT) {
+    EXPECT_FALSE(target.slices_supported());
+  }
 
   // The scene is drawn once; the five frames after it show it as kept, and the last of them is
   // what the offscreen target draws.
@@ -189,6 +216,60 @@ TEST_F(Window, ShowsWhatTheOffscreenTargetShowsAndSurvivesResizeAndMinimise) {
   glfwRestoreWindow(window);
   for (int k = 0; k < 10; ++k) glfwWaitEventsTimeout(0.02);
   EXPECT_TRUE(draw(3));
+}
+
+// A picture drawn in slices over several frames (as the editor draws a scan on a CPU device):
+// until its last slice the frames show the picture before it (the background before the first),
+// and then exactly the picture drawn whole, wireframe and all. A slice out of turn is refused.
+TEST_F(Window, APictureDrawnInSlicesShowsTheLastOneUntilItIsWholeAndThenTheSamePixels) {
+  WindowDrawing drawing(*context, [this] { return framebuffer_size(); }, false, 1);
+  ASSERT_TRUE(drawing.target.slices_supported());
+  const auto same = [](const engine::Pixels& a, const engine::Pixels& b) { return a.width == b.width && a.height == b.height && a.rgba == b.rgba; };
+  const auto background = [](const engine::Pixels& picture) {
+    for (std::size_t i = 0; i < picture.rgba.size(); i += 4) {
+      for (int c = 0; c < 3; ++c) {
+        if (std::abs(picture.rgba[i + c] - std::lround(255.0f * engine::kBackground[c])) > 1) return false;
+      }
+    }
+    return true;
+  };
+  constexpr int kSlices = 5;
+  // The first picture: the background until it is whole.
+  EXPECT_EQ(drawing.target.scene_build(), (engine::SwapchainTarget::SceneBuild{}));
+  for (int k = 0; k < kSlices - 1; ++k) {
+    EXPECT_TRUE(background(drawing.draw_slice(engine::DrawSlice{k, kSlices}))) << "slice " << k << " showed an unfinished picture";
+    EXPECT_EQ(drawing.target.scene_build(), (engine::SwapchainTarget::SceneBuild{k + 1, kSlices}));
+    EXPECT_FALSE(drawing.target.scene_kept());
+  }
+  const engine::Pixels sliced = drawing.draw_slice(engine::DrawSlice{kSlices - 1, kSlices});
+  EXPECT_TRUE(drawing.target.scene_kept());
+  EXPECT_EQ(drawing.target.scene_build(), (engine::SwapchainTarget::SceneBuild{}));
+  const engine::Pixels whole = drawing.draw_slice(engine::DrawSlice{0, 1});
+  EXPECT_FALSE(background(whole));
+  EXPECT_TRUE(same(sliced, whole)) << "the slices drew another picture than the whole draw";
+  EXPECT_TRUE(same(drawing.draw_slice(std::nullopt), whole)) << "the picture kept is not the one shown";
+
+  // Another picture (the wireframe on, flat shading) in slices: the last one stays until it is whole.
+  drawing.settings.wireframe = true;
+  drawing.settings.flat_shading = true;
+  for (int k = 0; k < 2; ++k) EXPECT_TRUE(same(drawing.draw_slice(engine::DrawSlice{k, 3}), whole)) << "slice " << k;
+  const engine::Pixels wired = drawing.draw_slice(engine::DrawSlice{2, 3});
+  EXPECT_FALSE(same(wired, whole));
+  EXPECT_TRUE(same(drawing.draw_slice(engine::DrawSlice{0, 1}), wired)) << "the slices drew another picture than the whole draw";
+  // A picture started again drops the unfinished one; a slice out of turn is a programming error.
+  drawing.draw_slice(engine::DrawSlice{0, 4});
+  EXPECT_THROW(drawing.target.begin_scene(VK_NULL_HANDLE, 2, 4), std::logic_error);
+  EXPECT_TRUE(same(drawing.draw_slice(engine::DrawSlice{0, 2}), wired));
+  EXPECT_EQ(drawing.target.scene_build(), (engine::SwapchainTarget::SceneBuild{1, 2}));
+  drawing.draw_slice(engine::DrawSlice{1, 2});
+  EXPECT_TRUE(same(drawing.draw_slice(std::nullopt), wired));
+
+  // A new size drops the picture being built.
+  drawing.draw_slice(engine::DrawSlice{0, 2});
+  glfwSetWindowSize(window, 400, 300);
+  for (int k = 0; k < 20 && framebuffer_size().width != 400; ++k) glfwWaitEventsTimeout(0.05);
+  EXPECT_TRUE(background(drawing.draw_slice(std::nullopt)));
+  EXPECT_EQ(drawing.target.scene_build(), (engine::SwapchainTarget::SceneBuild{}));
 }
 
 // As the editor runs without validation: a thread of its own presents, another waits for each

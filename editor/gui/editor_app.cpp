@@ -40,7 +40,7 @@ int EditorApp::run() {
       break;
     }
     const bool busy = (!input_.empty() && !saving()) || dragging_ || loaded_to_install_ || benchmark_ || screenshot_requested_ || (transfer_ && transfer_->busy()) ||
-                      (document_ && document_->last_published_request() != shown_tag_);
+                      (document_ && document_->last_published_request() != shown_tag_) || (target_ && target_->scene_build().slices > 0);
     // A set-up in progress only changes the panel's progress line, which a frame a second shows
     // well enough. Polling drew frame after frame instead, and on a CPU device each frame of a
     // large mesh took the cores from the set-up (the 3.3M Buddha on lavapipe: half a second a
@@ -161,6 +161,10 @@ void EditorApp::create_renderer() {
   slots_ = std::make_unique<engine::FrameSlots>(*context_, frames_in_flight());
   if (!single_threaded_vulkan()) slots_->enable_completion_times();
   latch_solves_ = options_.pacing == "latch" || (options_.pacing == "auto" && context_->is_cpu_device());
+  // A GPU draws a scan's picture within a frame; a CPU device takes seconds (scene_slices.h).
+  slice_triangles_ = options_.slice_triangles >= 0 ? static_cast<std::size_t>(options_.slice_triangles)
+                     : context_->is_cpu_device() ? kSliceTriangles
+                                                 : 0;
   renderer_ = std::make_unique<engine::MeshRenderer>(*context_, target_->render_pass(), target_->format(), slots_->count());
   transfer_ = std::make_unique<TransferView>(*context_, target_->render_pass(), target_->format(), slots_->count(), chosen_up_axis());
 
@@ -417,10 +421,12 @@ void EditorApp::render(ImDrawData* draw_data) {
   uint32_t image = 0;
   if (!target_->acquire(slot.image_available, image)) return;  // minimised or rebuilt: draw next time
   const VkExtent2D extent = target_->extent();
+  bool moving = false;
   if (mode_ == Mode::Transfer) {
     transfer_->prepare(slot.index, extent, kPanelWidth * ImGui::GetIO().DisplayFramebufferScale.x);
   } else {
-    if (view_moving()) motion_detail_.note_motion(now);
+    moving = view_moving();
+    if (moving) motion_detail_.note_motion(now);
     camera_.covered_left = panel_fraction();  // the window may have been resized
     engine::RenderSettings frame_settings = settings_;
     frame_settings.proxy = motion_detail_.proxy(now);
@@ -430,22 +436,33 @@ void EditorApp::render(ImDrawData* draw_data) {
   }
   // The scene is drawn again only when it changed: while only the panel or a progress line does, a
   // frame of a scan of millions of triangles on a CPU device would take seconds of the cores the
-  // solver is using (the 13M Buddha on lavapipe: 2 to 4 s a frame).
-  // (The transfer views' meshes are small; their scene is drawn every frame.)
+  // solver is using (the 13M Buddha on lavapipe: 2 to 4 s a frame). A large picture is drawn in
+  // slices over several frames (scene_slices.h), the last whole one shown meanwhile; a change
+  // before its last slice starts it again.
+  // (The transfer views' meshes are small; their scene is drawn whole every frame.)
   const bool transfer = mode_ == Mode::Transfer;
-  const bool scene_changed = transfer || scene_shows_transfer_ || !target_->scene_kept() || !renderer_->prepared_as_before();
-  if (scene_changed) {
-    const trace::Scope traced("scene pass", "frame");
-    target_->begin_scene(slot.commands);
+  const engine::SwapchainTarget::SceneBuild build = target_->scene_build();
+  const SceneState scene{.same_scene = !transfer && !scene_shows_transfer_ && renderer_->prepared_as_before(),
+                         .shown = target_->scene_kept(),
+                         .next_slice = build.next,
+                         .slices = build.slices,
+                         .moving = moving,
+                         .triangles = transfer ? 0 : renderer_->prepared_triangles()};
+  if (const auto slice = next_scene_slice(scene, target_->slices_supported() ? slice_triangles_ : 0)) {
+    const trace::Scope traced(slice->count == 1 ? "scene pass" : "scene pass, a slice", "frame");
+    target_->begin_scene(slot.commands, slice->index, slice->count);
     if (transfer) transfer_->record(slot.commands, slot.index);
-    else renderer_->record(slot.commands, slot.index, extent);
+    else renderer_->record(slot.commands, slot.index, extent, {slice->index, slice->count});
     target_->end_scene(slot.commands);
+    // This frame's panel was made before the picture was complete: the next one says so.
+    if (slice->count > 1 && target_->scene_build().slices == 0) glfwPostEmptyEvent();
     scene_shows_transfer_ = transfer;
     ++scene_frames_;
   }
   ++frames_drawn_;
   target_->begin(slot.commands, image);
-  const bool screenshot = screenshot_requested_;
+  // A screenshot is of the whole picture: while one is being built, the frame that completes it.
+  const bool screenshot = screenshot_requested_ && target_->scene_build().slices == 0;
   if (!view_only_screenshot()) ImGui_ImplVulkan_RenderDrawData(draw_data, slot.commands);
   target_->end(slot.commands, image, screenshot);
   const std::uint64_t frame = slots_->submit(slot, slot.image_available, target_->render_finished(image));

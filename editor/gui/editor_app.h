@@ -26,6 +26,7 @@ struct EditorOptions {
   std::string device;
   std::string pacing = "auto";  // latch, free, or auto: latch on a CPU device (see wait_for_device)
   std::string proxy = "auto";   // auto: a simplified mesh while a large one moves on a CPU device (motion_detail.h); off
+  long long slice_triangles = -1;  // a picture of more triangles is drawn over several frames; 0: whole; < 0: by device (scene_slices.h)
   bool validation = false;
   bool refine = true;   // a new session refines (as-rigid-as-possible); a session file says for itself
   // Where a new session solves (a session file says for itself): Automatic decides by the mesh's

@@ -40,6 +40,7 @@
 #include "gui/profiler_panel.h"
 #include "gui/recent_files.h"
 #include "gui/recovery.h"
+#include "gui/scene_slices.h"
 #include "gui/restore_prompt.h"
 #include "gui/synthetic_drag.h"
 #include "gui/view_navigation.h"
@@ -481,6 +482,7 @@ class EditorApp {
   BackgroundTask<Eigen::MatrixXi> proxy_task_;  // simplifying the mesh just opened (CPU device)
   BackgroundTask<bool> retiring_;               // letting go of the document another one replaced
   MotionDetail motion_detail_;
+  std::size_t slice_triangles_ = 0;  // a picture of more triangles is drawn in slices (scene_slices.h); 0: whole
   bool refinement_settled_ = false;  // the latest publication's refinement converged (announced)
   Eigen::Index proxy_triangle_count_ = 0;
   // Starts simplifying a newly opened mesh, on a CPU device with --proxy auto; installs the proxy

@@ -265,6 +265,8 @@ void EditorApp::install(Loaded loaded_document) {
   const engine::Bounds bounds = loaded->scene.bounds;
   up_axis_ = chosen_up_axis().value_or(engine::UpAxis::Z);
   renderer_->set_mesh(document_->rest().triangles, *exchange_, bounds, up_axis(), loaded->scene.closed);
+  // The last mesh's picture does not stand for this one while its first picture is drawn.
+  target_->drop_scene();
   start_proxy();
   picker_.reset();
   adjust_camera(true);

@@ -369,7 +369,10 @@ void EditorApp::draw_dialogs() {
                           : transfer_work ? transfer_work->second
                           : load_.running() ? load_.seconds()
                                         : (build_started_ != Clock::time_point{} ? seconds_since(build_started_) : 0.0);
-  if ((busy && busy_for > kProgressDelay) || loaded_to_install_) {
+  // The first picture of a mesh drawn in slices (scene_slices.h): nothing shows it until the last.
+  const engine::SwapchainTarget::SceneBuild build = target_->scene_build();
+  const bool first_picture = mode_ != Mode::Transfer && document_ && !target_->scene_kept() && build.slices > 0;
+  if ((busy && busy_for > kProgressDelay) || loaded_to_install_ || first_picture) {
     const char* spinner = "|/-\\";
     const std::string what = saving()        ? save_task_.what()
                              : transfer_work ? transfer_work->first
@@ -381,6 +384,8 @@ void EditorApp::draw_dialogs() {
       const Mesh& mesh = loaded_to_install_->document->rest();
       std::snprintf(line, sizeof line, "Drawing %s: %lld triangles", std::filesystem::path(loaded_to_install_->session.mesh).filename().c_str(),
                     static_cast<long long>(mesh.triangle_count()));
+    } else if (first_picture && !saving() && !transfer_work) {
+      std::snprintf(line, sizeof line, "Drawing %s: %d%%", std::filesystem::path(mesh_name_).filename().c_str(), 100 * build.next / build.slices);
     } else {
       std::snprintf(line, sizeof line, "%c %s  (%.1f s)", spinner[static_cast<int>(busy_for * 8) % 4], what.c_str(), busy_for);
     }

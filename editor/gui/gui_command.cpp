@@ -35,6 +35,11 @@ class GuiCommand final : public BatchCommand {
                         "once it rests), off (always the whole mesh)")
         ->check(CLI::IsMember({"auto", "off"}))
         ->capture_default_str();
+    command->add_option("--slice-triangles", options_.slice_triangles,
+                        "A still picture of more triangles than this is drawn over several frames, the window answering between "
+                        "them and showing the last picture meanwhile (default: 1000000 on a CPU device, 0 on a GPU; 0: always whole; "
+                        "needs --samples 1)")
+        ->check(CLI::NonNegativeNumber);
     command->add_flag("--validation", options_.validation, "Enable the Khronos validation layer");
     resolution_.add_options(*command);
     add_precision_option(*command, precision_);

@@ -4,6 +4,8 @@
 #include <array>
 #include <cmath>
 #include <cstring>
+#include <stdexcept>
+#include <string>
 #include <utility>
 
 #include "hdeform/engine/closed_mesh.h"
@@ -379,6 +381,7 @@ void MeshRenderer::prepare(uint32_t frame_index, const Camera& camera, const Ren
     }
   }
   prepared_proxy_ = frame.has_geometry && proxy_index_count_ > 0 && (settings.proxy || frame.geometry_proxy_only);
+  prepared_triangles_ = !frame.has_geometry ? 0 : (prepared_proxy_ ? proxy_index_count_ : index_count_) / 3;
   if (frame.attributes_version != attributes_version_ && frame.attributes.mapped != nullptr) {
     std::memcpy(frame.attributes.mapped, attributes_.data(), sizeof(float) * attributes_.size());
     frame.attributes_version = attributes_version_;
@@ -456,7 +459,11 @@ void MeshRenderer::prepare(uint32_t frame_index, const Camera& camera, const Ren
   std::swap(prepared_key_, previous_key_);
 }
 
-void MeshRenderer::record(VkCommandBuffer commands, uint32_t frame_index, VkRect2D area) const {
+void MeshRenderer::record(VkCommandBuffer commands, uint32_t frame_index, VkRect2D area, DrawSlice slice) const {
+  if (slice.count < 1 || slice.index < 0 || slice.index >= slice.count) {
+    throw std::logic_error("MeshRenderer::record: part " + std::to_string(slice.index) + " of " + std::to_string(slice.count));
+  }
+  const bool last_slice = slice.index == slice.count - 1;
   const Frame& frame = frames_[frame_index];
   const VkViewport viewport{static_cast<float>(area.offset.x), static_cast<float>(area.offset.y), static_cast<float>(area.extent.width),
                             static_cast<float>(area.extent.height), 0.0f, 1.0f};
@@ -470,17 +477,29 @@ void MeshRenderer::record(VkCommandBuffer commands, uint32_t frame_index, VkRect
     const std::array<VkDeviceSize, 2> offsets{0, 0};
     vkCmdBindVertexBuffers(commands, HD_VERTEX_BINDING_GEOMETRY, 2, buffers.data(), offsets.data());
     const bool proxy = (frame.settings.proxy || frame.geometry_proxy_only) && proxy_index_count_ > 0;
-    const uint32_t index_count = proxy ? proxy_index_count_ : index_count_;
+    // The whole picture's draws in order, the surface's triangles and then the wireframe's, cut
+    // into equal parts.
+    const std::uint64_t triangles = (proxy ? proxy_index_count_ : index_count_) / 3;
+    const bool wireframe = frame.settings.wireframe && wireframe_ != VK_NULL_HANDLE;
+    const std::uint64_t all = triangles * (wireframe ? 2 : 1);
+    const std::uint64_t from = all * static_cast<std::uint64_t>(slice.index) / static_cast<std::uint64_t>(slice.count);
+    const std::uint64_t to = all * static_cast<std::uint64_t>(slice.index + 1) / static_cast<std::uint64_t>(slice.count);
+    const auto draw = [&](std::uint64_t first, std::uint64_t end) {
+      if (end > first) vkCmdDrawIndexed(commands, static_cast<uint32_t>(3 * (end - first)), 1, static_cast<uint32_t>(3 * first), 0, 0);
+    };
     vkCmdBindIndexBuffer(commands, proxy ? proxy_indices_.buffer : indices_.buffer, 0, VK_INDEX_TYPE_UINT32);
-    using BackFaces = RenderSettings::BackFaces;
-    const bool cull = frame.settings.back_faces == BackFaces::Cull || (frame.settings.back_faces == BackFaces::Auto && closed_);
-    vkCmdBindPipeline(commands, VK_PIPELINE_BIND_POINT_GRAPHICS, surface_[frame.settings.flat_shading ? 1 : 0][cull ? 1 : 0]);
-    vkCmdDrawIndexed(commands, index_count, 1, 0, 0, 0);
-    if (frame.settings.wireframe && wireframe_ != VK_NULL_HANDLE) {
+    if (from < triangles) {
+      using BackFaces = RenderSettings::BackFaces;
+      const bool cull = frame.settings.back_faces == BackFaces::Cull || (frame.settings.back_faces == BackFaces::Auto && closed_);
+      vkCmdBindPipeline(commands, VK_PIPELINE_BIND_POINT_GRAPHICS, surface_[frame.settings.flat_shading ? 1 : 0][cull ? 1 : 0]);
+      draw(from, std::min(to, triangles));
+    }
+    if (to > triangles) {
       vkCmdBindPipeline(commands, VK_PIPELINE_BIND_POINT_GRAPHICS, wireframe_);
-      vkCmdDrawIndexed(commands, index_count, 1, 0, 0, 0);
+      draw(std::max(from, triangles) - triangles, to - triangles);
     }
   }
+  if (!last_slice) return;
   if (frame.settings.ground) {
     vkCmdBindPipeline(commands, VK_PIPELINE_BIND_POINT_GRAPHICS, ground_);
     vkCmdDraw(commands, 6, 1, 0, 0);

@@ -3,6 +3,7 @@
 #include <array>
 #include <span>
 #include <cstring>
+#include <stdexcept>
 
 namespace hdeform::engine {
 
@@ -46,22 +47,25 @@ VkSubpassDependency written_before_copy_or_presentation() {
 
 }  // namespace
 
-VkRenderPass create_scene_render_pass(const VulkanContext& context, const PassFormat& format, VkImageLayout final_layout) {
+VkRenderPass create_scene_render_pass(const VulkanContext& context, const PassFormat& format, VkImageLayout final_layout, ScenePass pass) {
   const bool multisampled = format.samples != VK_SAMPLE_COUNT_1_BIT;
+  if (multisampled && pass != ScenePass::Whole) throw std::logic_error("a scene is drawn in slices only single-sampled");
+  const bool continues = pass == ScenePass::NextSlice;
   std::vector<VkAttachmentDescription> attachments;
   VkAttachmentDescription color{};
   color.format = format.color;
   color.samples = format.samples;
-  color.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+  color.loadOp = continues ? VK_ATTACHMENT_LOAD_OP_LOAD : VK_ATTACHMENT_LOAD_OP_CLEAR;
   color.storeOp = multisampled ? VK_ATTACHMENT_STORE_OP_DONT_CARE : VK_ATTACHMENT_STORE_OP_STORE;
   color.stencilLoadOp = VK_ATTACHMENT_LOAD_OP_DONT_CARE;
   color.stencilStoreOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
-  color.initialLayout = VK_IMAGE_LAYOUT_UNDEFINED;
+  color.initialLayout = continues ? final_layout : VK_IMAGE_LAYOUT_UNDEFINED;
   color.finalLayout = multisampled ? VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL : final_layout;
   attachments.push_back(color);
   VkAttachmentDescription depth = color;
   depth.format = format.depth;
-  depth.storeOp = VK_ATTACHMENT_STORE_OP_DONT_CARE;
+  depth.storeOp = pass == ScenePass::Whole ? VK_ATTACHMENT_STORE_OP_DONT_CARE : VK_ATTACHMENT_STORE_OP_STORE;
+  depth.initialLayout = continues ? VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL : VK_IMAGE_LAYOUT_UNDEFINED;
   depth.finalLayout = VK_IMAGE_LAYOUT_DEPTH_STENCIL_ATTACHMENT_OPTIMAL;
   attachments.push_back(depth);
   if (multisampled) {

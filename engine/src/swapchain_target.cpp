@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cstring>
 #include <stdexcept>
+#include <string>
 
 namespace hdeform::engine {
 namespace {
@@ -64,6 +65,10 @@ SwapchainTarget::SwapchainTarget(const VulkanContext& context, std::function<VkE
   format_.depth = choose_depth_format(context);
   format_.samples = context.supported_samples(samples);
   render_pass_ = create_scene_render_pass(context, format_, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL);
+  if (format_.samples == VK_SAMPLE_COUNT_1_BIT) {
+    first_slice_pass_ = create_scene_render_pass(context, format_, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, ScenePass::FirstSlice);
+    next_slice_pass_ = create_scene_render_pass(context, format_, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, ScenePass::NextSlice);
+  }
   overlay_pass_ = create_overlay_render_pass(context, format_.color);
   create_swapchain();
   if (present_on_thread) {
@@ -109,8 +114,9 @@ SwapchainTarget::~SwapchainTarget() {
   vkDeviceWaitIdle(context_.device());
   destroy_swapchain();
   context_.destroy(copy_);
-  vkDestroyRenderPass(context_.device(), render_pass_, nullptr);
-  vkDestroyRenderPass(context_.device(), overlay_pass_, nullptr);
+  for (const VkRenderPass pass : {render_pass_, first_slice_pass_, next_slice_pass_, overlay_pass_}) {
+    if (pass != VK_NULL_HANDLE) vkDestroyRenderPass(context_.device(), pass, nullptr);
+  }
 }
 
 void SwapchainTarget::create_swapchain() {
@@ -153,10 +159,15 @@ void SwapchainTarget::create_swapchain() {
   std::vector<VkImage> images(count);
   vkGetSwapchainImagesKHR(device, swapchain_, &count, images.data());
   attachments_.create(context_, format_, extent_);
-  scene_ = context_.create_image(extent_.width, extent_.height, format_.color, VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT,
-                                 VK_SAMPLE_COUNT_1_BIT, VK_IMAGE_ASPECT_COLOR_BIT);
-  scene_framebuffer_ = create_framebuffer(context_, render_pass_, attachments_.views(format_, scene_.view), extent_);
-  scene_kept_ = false;
+  for (std::size_t k = 0; k < scenes_.size(); ++k) {
+    scenes_[k] = context_.create_image(extent_.width, extent_.height, format_.color,
+                                       VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT, VK_SAMPLE_COUNT_1_BIT,
+                                       VK_IMAGE_ASPECT_COLOR_BIT);
+    scene_framebuffers_[k] = create_framebuffer(context_, render_pass_, attachments_.views(format_, scenes_[k].view), extent_);
+  }
+  shown_ = -1;
+  drawing_ = 0;
+  build_ = {};
   images_.resize(count);
   for (uint32_t i = 0; i < count; ++i) {
     SwapImage& swap_image = images_[i];
@@ -181,10 +192,13 @@ void SwapchainTarget::destroy_swapchain() {
     vkDestroyImageView(device, swap_image.view, nullptr);
   }
   images_.clear();
-  if (scene_framebuffer_ != VK_NULL_HANDLE) vkDestroyFramebuffer(device, scene_framebuffer_, nullptr);
-  scene_framebuffer_ = VK_NULL_HANDLE;
-  context_.destroy(scene_);
-  scene_kept_ = false;
+  for (std::size_t k = 0; k < scenes_.size(); ++k) {
+    if (scene_framebuffers_[k] != VK_NULL_HANDLE) vkDestroyFramebuffer(device, scene_framebuffers_[k], nullptr);
+    scene_framebuffers_[k] = VK_NULL_HANDLE;
+    context_.destroy(scenes_[k]);
+  }
+  shown_ = -1;
+  build_ = {};
   attachments_.destroy(context_);
   if (swapchain_ != VK_NULL_HANDLE) vkDestroySwapchainKHR(device, swapchain_, nullptr);
   swapchain_ = VK_NULL_HANDLE;
@@ -247,27 +261,44 @@ bool SwapchainTarget::acquire(VkSemaphore image_available, uint32_t& image) {
   return true;
 }
 
-void SwapchainTarget::begin_scene(VkCommandBuffer commands) { begin_scene_pass(commands, render_pass_, scene_framebuffer_, extent_); }
+void SwapchainTarget::begin_scene(VkCommandBuffer commands, int slice, int slices) {
+  if (slices < 1 || slice < 0 || slice >= slices || (slices > 1 && !slices_supported())) {
+    throw std::logic_error("SwapchainTarget::begin_scene: slice " + std::to_string(slice) + " of " + std::to_string(slices));
+  }
+  if (slice > 0 && build_ != SceneBuild{slice, slices}) throw std::logic_error("SwapchainTarget::begin_scene: not the slice the picture needs next");
+  // A new picture goes into the image not shown (an unfinished one there is dropped).
+  if (slice == 0) drawing_ = shown_ == 0 ? 1 : 0;
+  const VkRenderPass pass = slices == 1 ? render_pass_ : slice == 0 ? first_slice_pass_ : next_slice_pass_;
+  begin_scene_pass(commands, pass, scene_framebuffers_[static_cast<std::size_t>(drawing_)], extent_);
+  build_ = {slice + 1, slices};
+}
 
 void SwapchainTarget::end_scene(VkCommandBuffer commands) {
   vkCmdEndRenderPass(commands);
-  scene_kept_ = true;
+  if (build_.next < build_.slices) return;
+  shown_ = drawing_;
+  build_ = {};
 }
 
 void SwapchainTarget::begin(VkCommandBuffer commands, uint32_t image) {
-  if (!scene_kept_) throw std::logic_error("SwapchainTarget::begin: no scene drawn at this size");
   // The image, once presentation let go of it (the acquire semaphore's wait is at this stage),
   // receives the scene; the scene pass left the scene image ready to be read by a copy.
   const VkImageMemoryBarrier barrier = color_layout_barrier(images_[image].image, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 0,
                                                            VK_ACCESS_TRANSFER_WRITE_BIT);
   vkCmdPipelineBarrier(commands, VK_PIPELINE_STAGE_COLOR_ATTACHMENT_OUTPUT_BIT, VK_PIPELINE_STAGE_TRANSFER_BIT, 0, 0, nullptr, 0, nullptr, 1,
                        &barrier);
-  VkImageCopy region{};
-  region.srcSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
-  region.dstSubresource = region.srcSubresource;
-  region.extent = {extent_.width, extent_.height, 1};
-  vkCmdCopyImage(commands, scene_.image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, images_[image].image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1,
-                 &region);
+  if (shown_ >= 0) {
+    VkImageCopy region{};
+    region.srcSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+    region.dstSubresource = region.srcSubresource;
+    region.extent = {extent_.width, extent_.height, 1};
+    vkCmdCopyImage(commands, scenes_[static_cast<std::size_t>(shown_)].image, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, images_[image].image,
+                   VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &region);
+  } else {
+    const VkClearColorValue background{{kBackground[0], kBackground[1], kBackground[2], 1.0f}};
+    const VkImageSubresourceRange range{VK_IMAGE_ASPECT_COLOR_BIT, 0, 1, 0, 1};
+    vkCmdClearColorImage(commands, images_[image].image, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, &background, 1, &range);
+  }
   VkRenderPassBeginInfo begin{VK_STRUCTURE_TYPE_RENDER_PASS_BEGIN_INFO};
   begin.renderPass = overlay_pass_;
   begin.framebuffer = images_[image].overlay_framebuffer;

@@ -49,6 +49,15 @@ inline uint32_t color_class(const Eigen::Vector3f& rgb) {
   return HD_CLASS_RGB | static_cast<uint32_t>(clamped.x()) | (static_cast<uint32_t>(clamped.y()) << 8) | (static_cast<uint32_t>(clamped.z()) << 16);
 }
 
+/// Part `index` of `count` of a picture drawn over several scene passes (SwapchainTarget's
+/// slices): that share of the mesh's triangles, in their order; the ground, markers and legend
+/// with the last part. Drawn one after another over the same colour and depth, the parts give the
+/// picture drawn whole, pixel for pixel.
+struct DrawSlice {
+  int index = 0;
+  int count = 1;
+};
+
 /// A dot drawn at a position (transfer mode's marker pairs).
 struct Marker {
   Eigen::Vector3f position;
@@ -91,12 +100,16 @@ class MeshRenderer {
     prepare(frame, camera, settings, VkRect2D{{0, 0}, extent});
   }
   /// Records the draws inside a begun render pass.
-  void record(VkCommandBuffer commands, uint32_t frame, VkExtent2D extent) const { record(commands, frame, VkRect2D{{0, 0}, extent}); }
+  void record(VkCommandBuffer commands, uint32_t frame, VkExtent2D extent, DrawSlice slice = {}) const {
+    record(commands, frame, VkRect2D{{0, 0}, extent}, slice);
+  }
   /// The same into a part of the target (several views side by side): the camera's aspect and
   /// every pixel size are the area's.
   void prepare(uint32_t frame, const Camera& camera, const RenderSettings& settings, VkRect2D area);
   /// Records the draws into a part of the target, inside a begun render pass.
-  void record(VkCommandBuffer commands, uint32_t frame, VkRect2D area) const;
+  void record(VkCommandBuffer commands, uint32_t frame, VkRect2D area, DrawSlice slice = {}) const;
+  /// The triangles the frame the last prepare() set up draws (the proxy's, the mesh's, or none).
+  std::size_t prepared_triangles() const { return prepared_triangles_; }
 
   /// Version and tag of the geometry the last prepare() took for its frame (0: none yet).
   std::uint64_t drawn_geometry_version() const { return drawn_geometry_version_; }
@@ -159,6 +172,7 @@ class MeshRenderer {
   std::uint64_t drawn_geometry_version_ = 0;
   std::uint64_t drawn_geometry_tag_ = 0;
   bool prepared_proxy_ = false;
+  std::size_t prepared_triangles_ = 0;
   std::uint64_t mesh_generation_ = 0;      ///< set_mesh calls: the mesh's triangles
   std::uint64_t proxy_generation_ = 0;     ///< set_proxy calls: the proxy's triangles
   std::vector<unsigned char> prepared_key_;  ///< what the last prepare() set up, byte for byte

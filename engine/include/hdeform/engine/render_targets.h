@@ -22,9 +22,21 @@ struct PassFormat {
 /// A depth format the device can render to.
 VkFormat choose_depth_format(const VulkanContext& context);
 
-/// Clears colour and depth, draws, resolves (when multisampled) into the single-sampled colour
-/// attachment, which ends in `final_layout`.
-VkRenderPass create_scene_render_pass(const VulkanContext& context, const PassFormat& format, VkImageLayout final_layout);
+/// How a scene pass starts and ends. A picture may be drawn in slices over several passes (on a
+/// CPU device a frame of every triangle of a scan takes a second, which the window need not wait
+/// for): the first slice clears, each later one draws over what the earlier ones left, colour and
+/// depth. Slices need a single-sampled pass. All three are compatible with one another, so the
+/// same pipelines and framebuffers serve them.
+enum class ScenePass {
+  Whole,       ///< clears colour and depth; the depth is not kept
+  FirstSlice,  ///< clears colour and depth, and keeps the depth for the next slice
+  NextSlice,   ///< draws over the colour and depth a slice before it left
+};
+
+/// Clears colour and depth (or, for NextSlice, loads them), draws, resolves (when multisampled)
+/// into the single-sampled colour attachment, which ends in `final_layout`.
+VkRenderPass create_scene_render_pass(const VulkanContext& context, const PassFormat& format, VkImageLayout final_layout,
+                                      ScenePass pass = ScenePass::Whole);
 
 /// The user interface over a scene: one single-sampled colour attachment of `color`, which holds
 /// the scene copied into it (loaded from the transfer layout), drawn over and left ready to present
@@ -49,7 +61,8 @@ inline constexpr float kBackground[3] = {0.80f, 0.82f, 0.85f};
 /// A framebuffer of `extent` for `pass` over `views` (in the pass's attachment order).
 VkFramebuffer create_framebuffer(const VulkanContext& context, VkRenderPass pass, std::span<const VkImageView> views, VkExtent2D extent);
 
-/// Begins a scene pass on `framebuffer`, clearing colour to kBackground and depth to 1.
+/// Begins a scene pass on `framebuffer`, clearing colour to kBackground and depth to 1 (a
+/// NextSlice pass ignores the clear values).
 void begin_scene_pass(VkCommandBuffer commands, VkRenderPass pass, VkFramebuffer framebuffer, VkExtent2D extent);
 
 /// RGBA, 8 bits per channel, rows top to bottom.

@@ -3,6 +3,7 @@
 /// A window's swapchain as a render target (the window system stays outside: the context owns
 /// the surface, and the caller says how big the framebuffer is). One render-finished semaphore
 /// per swapchain image, as presentation may hold an image longer than a frame slot.
+#include <array>
 #include <atomic>
 #include <condition_variable>
 #include <deque>
@@ -22,6 +23,11 @@ namespace hdeform::engine {
 /// around it changes with every mouse move), then the scene copied into the swapchain image and
 /// the overlay pass (the user interface) drawn over it. Presentation optionally on a thread of its
 /// own.
+///
+/// A picture of the scene may also be built in slices over several frames (single-sampled targets):
+/// each frame draws a part of the triangles into a second image, over what the slices before it
+/// drew, while the frames show the last picture completed; the last slice makes the new picture
+/// the one shown. So the window keeps answering while a CPU device draws a scan.
 class SwapchainTarget {
  public:
   // `framebuffer_size` returns the window's framebuffer size in pixels (0×0 while minimised).
@@ -49,15 +55,34 @@ class SwapchainTarget {
   /// Acquires the next image, signalling `image_available`. Returns false when there is nothing
   /// to draw into this time (minimised, or the swapchain was just rebuilt for a new size).
   bool acquire(VkSemaphore image_available, uint32_t& image);
-  /// Begins the scene pass into the scene image (cleared).
-  void begin_scene(VkCommandBuffer commands);
-  /// Ends the scene pass; from here the scene image holds a scene of the current size.
+  /// Whether a picture may be built in slices (begin_scene with slices > 1): single-sampled only.
+  bool slices_supported() const { return next_slice_pass_ != VK_NULL_HANDLE; }
+  /// Begins slice `slice` of `slices` of a scene pass into the picture being built: slice 0 clears
+  /// it and starts a new picture (dropping one left unfinished); a later slice must be the one
+  /// scene_build() names, and draws over what the slices before it drew.
+  void begin_scene(VkCommandBuffer commands, int slice = 0, int slices = 1);
+  /// Ends the slice. After the last one the picture built is the one the frames show.
   void end_scene(VkCommandBuffer commands);
-  /// Whether the scene image holds a whole scene of the current size, drawn since the swapchain was
-  /// last built: a frame whose scene has not changed may skip its scene pass.
-  bool scene_kept() const { return scene_kept_; }
-  /// Copies the scene image into image `image` and begins the overlay pass on it. Needs a scene:
-  /// scene_kept(), or a scene pass recorded before in this frame.
+  /// Whether a whole picture of the current size, drawn since the swapchain was last built, is
+  /// shown: a frame whose scene has not changed may skip its scene pass.
+  bool scene_kept() const { return shown_ >= 0; }
+  /// A picture being built: the slice it needs next, of how many. {0, 0} when none is (none was
+  /// started, the last was completed, or the swapchain was rebuilt since: a new size needs a new
+  /// picture).
+  struct SceneBuild {
+    int next = 0;
+    int slices = 0;
+    bool operator==(const SceneBuild&) const = default;
+  };
+  SceneBuild scene_build() const { return build_; }
+  /// Forgets the picture shown (a new mesh: the last one's picture does not stand for it), and any
+  /// being built: the frames show the background until the next picture is complete.
+  void drop_scene() {
+    shown_ = -1;
+    build_ = {};
+  }
+  /// Copies the picture shown into image `image` (the background where none is yet, while the
+  /// first one is built) and begins the overlay pass on it.
   void begin(VkCommandBuffer commands, uint32_t image);
   /// Ends the overlay pass; with `keep_copy` also copies the image for read_last_image().
   void end(VkCommandBuffer commands, uint32_t image, bool keep_copy = false);
@@ -93,10 +118,16 @@ class SwapchainTarget {
   VkSwapchainKHR swapchain_ = VK_NULL_HANDLE;
   VkExtent2D extent_{0, 0};
   std::vector<SwapImage> images_;
+  VkRenderPass first_slice_pass_ = VK_NULL_HANDLE;  ///< null when multisampled (no slices)
+  VkRenderPass next_slice_pass_ = VK_NULL_HANDLE;
   SceneAttachments attachments_;
-  Image scene_;  ///< the scene pass's single-sampled colour, copied into each frame's image
-  VkFramebuffer scene_framebuffer_ = VK_NULL_HANDLE;
-  bool scene_kept_ = false;
+  /// The scene passes' single-sampled colour: the picture shown, copied into each frame's image,
+  /// and the one being built.
+  std::array<Image, 2> scenes_;
+  std::array<VkFramebuffer, 2> scene_framebuffers_{};
+  int shown_ = -1;  ///< the scene image shown; -1: none yet at this size
+  int drawing_ = 0;  ///< the one the next scene pass draws into
+  SceneBuild build_;
   Buffer copy_;
   VkExtent2D copy_extent_{0, 0};
 
