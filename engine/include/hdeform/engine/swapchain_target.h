@@ -66,14 +66,14 @@ class SwapchainTarget {
   /// Whether a whole picture of the current size, drawn since the swapchain was last built, is
   /// shown: a frame whose scene has not changed may skip its scene pass.
   bool scene_kept() const { return shown_ >= 0; }
-  /// A picture being built: the slice it needs next, of how many. {0, 0} when none is (none was
-  /// started, the last was completed, or the swapchain was rebuilt since: a new size needs a new
-  /// picture).
+  /// A picture being built: the slice it needs next, of how many.
   struct SceneBuild {
     int next = 0;
     int slices = 0;
     bool operator==(const SceneBuild&) const = default;
   };
+  /// The picture being built; {0, 0} when none is (none was started, the last was completed, or
+  /// the swapchain was rebuilt since: a new size needs a new picture).
   SceneBuild scene_build() const { return build_; }
   /// Forgets the picture shown (a new mesh: the last one's picture does not stand for it), and any
   /// being built: the frames show the background until the next picture is complete.
