@@ -103,7 +103,7 @@ class UpdatePipeline {
   std::shared_ptr<const std::vector<int>> pending_only_;  ///< the waiting request's vertices (null: all)
   std::shared_ptr<const std::vector<int>> current_only_;
   bool whole_ = true;  ///< positions_ hold every vertex of the last answer
-  bool busy_ = false;  ///< the thread is answering a request or refining (the lock is not held meanwhile)
+  bool busy_ = true;  ///< the thread is answering a request or refining, or copying the rest positions at its start (the lock is not held meanwhile)
   bool refine_ = false;
   bool refined_out_ = true;  ///< the last result needs no more iterations (converged, or no refinement)
   bool has_result_ = false;  ///< a request has been answered: there is something to refine
