@@ -520,6 +520,8 @@ class EditorApp {
   std::vector<ImVec2> stroke_;  // the lasso's points
   ImVec2 last_stamp_{};          // where the brush last painted in this stroke
   bool view_dirty_ = true;
+  std::vector<uint32_t> view_classes_;  // what sync_view hands the renderer, kept for the next call
+  std::vector<float> view_field_;
   struct KeyPress {
     int key;
     int mods;

@@ -11,6 +11,7 @@
 #include "hdeform/engine/closed_mesh.h"
 #include "hdeform/engine/palette.h"
 #include "hdeform/mesh.h"
+#include "hdeform/trace.h"
 #include "shaders/ground_frag.h"
 #include "shaders/ground_vert.h"
 #include "shaders/legend_frag.h"
@@ -365,6 +366,7 @@ void MeshRenderer::prepare(uint32_t frame_index, const Camera& camera, const Ren
   if (geometry_ != nullptr) {
     if (const GeometrySnapshot* snapshot = geometry_->acquire()) {
       if (snapshot->version != frame.geometry_version) {
+        const trace::Scope traced("geometry uploaded", "frame");
         if (snapshot->only_vertices) {
           // The proxy's vertices alone: the frame draws nothing else of this geometry.
           auto* to = static_cast<float*>(frame.geometry.mapped);
@@ -383,6 +385,7 @@ void MeshRenderer::prepare(uint32_t frame_index, const Camera& camera, const Ren
   prepared_proxy_ = frame.has_geometry && proxy_index_count_ > 0 && (settings.proxy || frame.geometry_proxy_only);
   prepared_triangles_ = !frame.has_geometry ? 0 : (prepared_proxy_ ? proxy_index_count_ : index_count_) / 3;
   if (frame.attributes_version != attributes_version_ && frame.attributes.mapped != nullptr) {
+    const trace::Scope traced("classes and field uploaded", "frame");
     std::memcpy(frame.attributes.mapped, attributes_.data(), sizeof(float) * attributes_.size());
     frame.attributes_version = attributes_version_;
   }
