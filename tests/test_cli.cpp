@@ -87,6 +87,9 @@ TEST_F(Cli, UsageErrorsExitWithTwo) {
   EXPECT_EQ(lists_alone.exit_code, 2);
   EXPECT_TRUE(contains(lists_alone.err, "give the mesh too")) << lists_alone.err;
   EXPECT_EQ(run(dir, "gui shape:cactus --up x").exit_code, 2);
+  const auto negative_slices = run(dir, "gui shape:cactus --slice-triangles -5");
+  EXPECT_EQ(negative_slices.exit_code, 2);
+  EXPECT_TRUE(contains(negative_slices.err, "--slice-triangles must be 0")) << negative_slices.err;
   EXPECT_EQ(run(dir, "edit --shape cactus --refine auto --refine-settle 2 --out " + path("x.obj")).exit_code, 2);
 }
 

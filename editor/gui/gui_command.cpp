@@ -35,11 +35,10 @@ class GuiCommand final : public BatchCommand {
                         "once it rests), off (always the whole mesh)")
         ->check(CLI::IsMember({"auto", "off"}))
         ->capture_default_str();
-    command->add_option("--slice-triangles", options_.slice_triangles,
-                        "A still picture of more triangles than this is drawn over several frames, the window answering between "
-                        "them and showing the last picture meanwhile (default: 1000000 on a CPU device, 0 on a GPU; 0: always whole; "
-                        "needs --samples 1)")
-        ->check(CLI::NonNegativeNumber);
+    slice_option_ = command->add_option("--slice-triangles", options_.slice_triangles,
+                                        "A still picture of more triangles than this is drawn over several frames, the window answering "
+                                        "between them and showing the last picture meanwhile (default: 1000000 on a CPU device, 0 on a "
+                                        "GPU; 0: always whole; needs --samples 1)");
     command->add_flag("--validation", options_.validation, "Enable the Khronos validation layer");
     resolution_.add_options(*command);
     add_precision_option(*command, precision_);
@@ -70,6 +69,7 @@ class GuiCommand final : public BatchCommand {
     }
     if (options_.transforms.size() > options_.handles.size()) throw UsageError("more --transform than --handle");
     if (!options_.up.empty() && options_.up != "z" && options_.up != "y") throw UsageError("--up must be z or y");
+    if (slice_option_->count() > 0 && options_.slice_triangles < 0) throw UsageError("--slice-triangles must be 0 (always whole) or more");
     if (options_.mesh.empty() && options_.session.empty() && (!options_.fixed.empty() || !options_.handles.empty() || !options_.roi.empty())) {
       throw UsageError("--fixed, --handle and --roi number the vertices of a mesh: give the mesh too (the built-in cactus is shape:cactus)");
     }
@@ -87,6 +87,7 @@ class GuiCommand final : public BatchCommand {
 
  private:
   EditorOptions options_;
+  CLI::Option* slice_option_ = nullptr;
   ResolutionChoice resolution_;
   std::string precision_ = std::string(to_string(FactorPrecision::Double));
 };
