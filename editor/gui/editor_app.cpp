@@ -40,7 +40,8 @@ int EditorApp::run() {
       break;
     }
     const bool busy = (!input_.empty() && !saving()) || dragging_ || loaded_to_install_ || benchmark_ || screenshot_requested_ || (transfer_ && transfer_->busy()) ||
-                      (document_ && document_->last_published_request() != shown_tag_) || (target_ && target_->scene_build().slices > 0);
+                      (document_ && document_->last_published_request() != shown_tag_) || (target_ && target_->scene_build().slices > 0) ||
+                      panel_behind_picture_;
     // A set-up in progress only changes the panel's progress line, which a frame a second shows
     // well enough. Polling drew frame after frame instead, and on a CPU device each frame of a
     // large mesh took the cores from the set-up (the 3.3M Buddha on lavapipe: half a second a

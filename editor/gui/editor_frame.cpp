@@ -9,6 +9,7 @@ void EditorApp::render(ImDrawData* draw_data) {
     last_update_seen_ = document_->last_update_ms();
     statistics_.note_update(last_update_seen_);
   }
+  panel_behind_picture_ = false;  // this frame's panel was made after the last picture was completed
   engine::FrameSlots::Slot& slot = slots_->begin();
   const auto now = Clock::now();
   note_finished_frames();
@@ -49,7 +50,7 @@ void EditorApp::render(ImDrawData* draw_data) {
     else renderer_->record(slot.commands, slot.index, extent, {slice->index, slice->count});
     target_->end_scene(slot.commands);
     // This frame's panel was made before the picture was complete: the next one says so.
-    if (slice->count > 1 && target_->scene_build().slices == 0) glfwPostEmptyEvent();
+    panel_behind_picture_ = slice->count > 1 && target_->scene_build().slices == 0;
     scene_shows_transfer_ = transfer;
     ++scene_frames_;
   }
