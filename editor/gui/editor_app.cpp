@@ -217,6 +217,8 @@ uint32_t EditorApp::frames_in_flight() const {
 void EditorApp::set_mode(Mode mode) {
   if (mode == mode_) return;
   mode_ = mode;
+  // The other mode's picture does not stand for this one while a scan's is drawn in slices.
+  target_->drop_scene();
   glfwSetWindowTitle(window_, mode_ == Mode::Transfer ? "hdeform — transfer" : ("hdeform — " + mesh_name_).c_str());
 }
 
