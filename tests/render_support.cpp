@@ -8,6 +8,18 @@
 
 namespace hdeform::test {
 
+engine::Pixels draw_frame(engine::MeshRenderer& renderer, engine::FrameSlots& slots, engine::OffscreenTarget& target, const engine::Camera& camera,
+                          const engine::RenderSettings& settings) {
+  auto& slot = slots.begin();
+  renderer.prepare(slot.index, camera, settings, target.extent());
+  target.begin(slot.commands);
+  renderer.record(slot.commands, slot.index, target.extent());
+  target.finish(slot.commands);
+  slots.submit(slot);
+  slots.wait_all();
+  return target.pixels();
+}
+
 std::unique_ptr<engine::VulkanContext> validated_context() {
   engine::ContextOptions options;
   options.validation = true;

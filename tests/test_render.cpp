@@ -362,19 +362,6 @@ TEST(GeometryExchange, AReaderOnAnotherThreadNeverSeesATornOrOlderSnapshot) {
               static_cast<unsigned long long>(kPublications));
 }
 
-// One frame of `renderer` into `target`, waited for: its pixels.
-engine::Pixels draw_frame(engine::MeshRenderer& renderer, engine::FrameSlots& slots, engine::OffscreenTarget& target, const engine::Camera& camera,
-                          const engine::RenderSettings& settings) {
-  auto& slot = slots.begin();
-  renderer.prepare(slot.index, camera, settings, target.extent());
-  target.begin(slot.commands);
-  renderer.record(slot.commands, slot.index, target.extent());
-  target.finish(slot.commands);
-  slots.submit(slot);
-  slots.wait_all();
-  return target.pixels();
-}
-
 TEST_F(Render, TheNextFrameShowsTheLatestOfTwoPublications) {
   // Publish twice between frames: the frame shows the second positions, not the first.
   auto shape = make_shape(ShapeKind::Sphere, 16);
@@ -390,7 +377,7 @@ TEST_F(Render, TheNextFrameShowsTheLatestOfTwoPublications) {
   camera.pitch = 1.5f;  // from above: +y is to the right... of the picture's columns
   engine::RenderSettings settings;
   settings.ground = false;
-  auto frame = [&] { return draw_frame(renderer, slots, target, camera, settings); };
+  auto frame = [&] { return test::draw_frame(renderer, slots, target, camera, settings); };
   // Column of the mesh's centre of coverage.
   auto centre_column = [&](const engine::Pixels& image) {
     const Eigen::Vector3f background(engine::kBackground[0], engine::kBackground[1], engine::kBackground[2]);
@@ -513,7 +500,7 @@ TEST_F(Render, AProxyPublicationIsDrawnAsTheProxy) {
     engine::RenderSettings settings;
     settings.ground = false;
     settings.proxy = proxy_setting;
-    return draw_frame(renderer, slots, target, camera, settings);
+    return test::draw_frame(renderer, slots, target, camera, settings);
   };
   Eigen::MatrixXd moved = sphere.positions;
   moved.col(1).array() += 0.6;

@@ -39,7 +39,7 @@ int EditorApp::run() {
       quit_on_signal(QuitSignals::received());
       break;
     }
-    const bool busy = (!input_.empty() && !saving()) || dragging_ || loaded_to_install_ || benchmark_ || screenshot_requested_ || (transfer_ && transfer_->busy()) ||
+    const bool busy = (!input_.empty() && !saving()) || dragging_ || benchmark_ || screenshot_requested_ || (transfer_ && transfer_->busy()) ||
                       (document_ && document_->last_published_request() != shown_tag_) || (target_ && target_->scene_build().slices > 0) ||
                       panel_behind_picture_;
     // A set-up in progress only changes the panel's progress line, which a frame a second shows
@@ -48,7 +48,8 @@ int EditorApp::run() {
     // frame; drag-ready after 18.5 s, where `edit` needs 7.9 s). Loading likewise changes only
     // the progress overlay, four times a second, and its end wakes the loop: polled, the overlay
     // alone took a core from the load and the set-up beside it (2,700–2,900 frames before the
-    // 13M Buddha was installed).
+    // 13M Buddha was installed). So does writing a mesh's buffers (staged_), whose end wakes the
+    // loop too.
     const bool setting_up = document_ && document_->solver_state() == Document::SolverState::Building;
     if (busy) glfwPollEvents();
     else {
@@ -231,7 +232,7 @@ void EditorApp::shutdown() {
   // back into the window system once abandoned.
   retiring_.abandon();
   load_.abandon();
-  loaded_to_install_.reset();
+  drop_staged();  // its buffers go before the renderer and the device
   proxy_task_.abandon();
   save_task_.finish();  // a save being written is finished first
   publisher_.reset();

@@ -58,7 +58,7 @@ void EditorApp::draw_controls() {
     return;
   }
   ImGui::TextWrapped("%s", !mesh_name_.empty() ? mesh_name_.c_str()
-                                      : load_.running() || loaded_to_install_ ? "(loading)"
+                                      : load_.running() || staged_ ? "(loading)"
                                       : restore_offer_ ? "Restore the last session? (the question in the middle)"
                                                        : "No mesh open: Open... or drop a mesh file here (OBJ, PLY, OFF, STL)");
   if (document_) ImGui::Text("%ld vertices, %ld triangles", static_cast<long>(document_->vertex_count()), static_cast<long>(document_->rest().triangle_count()));
@@ -372,18 +372,16 @@ void EditorApp::draw_dialogs() {
   // The first picture of a mesh drawn in slices (scene_slices.h): nothing shows it until the last.
   const engine::SwapchainTarget::SceneBuild build = target_->scene_build();
   const bool first_picture = mode_ != Mode::Transfer && document_ && !target_->scene_kept() && build.slices > 0;
-  if ((busy && busy_for > kProgressDelay) || loaded_to_install_ || first_picture) {
+  const bool staging_shown = staged_ && (staged_->announced || stage_.seconds() > kProgressDelay);
+  if ((busy && busy_for > kProgressDelay) || staging_shown || first_picture) {
     const char* spinner = "|/-\\";
     const std::string what = saving()        ? save_task_.what()
                              : transfer_work ? transfer_work->first
                              : load_.running() ? load_.what()
                                            : document_ ? document_->solver_message() : std::string();
     char line[512];
-    if (loaded_to_install_ && !saving() && !transfer_work) {
-      // The next frame waits for the mesh's first picture, and no line moves meanwhile.
-      const Mesh& mesh = loaded_to_install_->document->rest();
-      std::snprintf(line, sizeof line, "Drawing %s: %lld triangles", std::filesystem::path(loaded_to_install_->session.mesh).filename().c_str(),
-                    static_cast<long long>(mesh.triangle_count()));
+    if (staging_shown && !saving() && !transfer_work) {
+      std::snprintf(line, sizeof line, "%s: %d%%", stage_.what().c_str(), static_cast<int>(100.0 * staged_->done->load()));
     } else if (first_picture && !saving() && !transfer_work) {
       std::snprintf(line, sizeof line, "Drawing %s: %d%%", std::filesystem::path(mesh_name_).filename().c_str(), 100 * build.next / build.slices);
     } else {

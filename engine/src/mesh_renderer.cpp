@@ -287,23 +287,36 @@ void MeshRenderer::release_mesh_buffers() {
 }
 
 void MeshRenderer::set_mesh(const Eigen::MatrixXi& triangles, GeometryExchange& geometry, const Bounds& rest, UpAxis up, std::optional<bool> closed) {
-  validate_triangles(triangles, static_cast<Eigen::Index>(geometry.vertex_count()), "mesh to draw");
+  auto buffers = std::make_unique<MeshBuffers>(context_, geometry.vertex_count(), static_cast<std::size_t>(triangles.rows()), frame_count());
+  buffers->fill(triangles, nullptr);
+  set_mesh(std::move(buffers), geometry, rest, up, closed ? *closed : every_edge_has_its_reverse(triangles, static_cast<Eigen::Index>(geometry.vertex_count())));
+}
+
+void MeshRenderer::set_mesh(std::unique_ptr<MeshBuffers> buffers, GeometryExchange& geometry, const Bounds& rest, UpAxis up, bool closed) {
+  if (!buffers || !buffers->filled() || buffers->frames() != frame_count() || buffers->vertex_count() != geometry.vertex_count()) {
+    throw std::logic_error("MeshRenderer::set_mesh: buffers unfilled, or made for other frames or another vertex count");
+  }
   vkDeviceWaitIdle(context_.device());
   release_mesh_buffers();
   geometry_ = &geometry;
   vertex_count_ = geometry.vertex_count();
   rest_bounds_ = rest;
   up_ = up;
-  index_count_ = static_cast<uint32_t>(triangles.size());
-  indices_ = index_buffer(triangles);
-  closed_ = closed ? *closed : every_edge_has_its_reverse(triangles, static_cast<Eigen::Index>(vertex_count_));
-  for (auto& frame : frames_) {
-    frame.geometry = context_.create_buffer(sizeof(float) * 6 * vertex_count_, VK_BUFFER_USAGE_VERTEX_BUFFER_BIT);
-    frame.attributes = context_.create_buffer(sizeof(float) * 2 * vertex_count_, VK_BUFFER_USAGE_VERTEX_BUFFER_BIT);
+  index_count_ = static_cast<uint32_t>(3 * buffers->triangle_count());
+  std::swap(indices_, buffers->indices_);
+  closed_ = closed;
+  for (std::size_t f = 0; f < frames_.size(); ++f) {
+    Frame& frame = frames_[f];
+    MeshBuffers::Frame& made = buffers->frames_[f];
+    std::swap(frame.geometry, made.geometry);
+    std::swap(frame.attributes, made.attributes);
+    frame.geometry_version = made.geometry_version;
   }
-  attributes_.assign(2 * vertex_count_, 0.0f);
+  attributes_ = std::move(buffers->attributes_);
   has_field_ = false;
+  // The buffers hold these attributes (none) already.
   ++attributes_version_;
+  for (Frame& frame : frames_) frame.attributes_version = attributes_version_;
   markers_cpu_.clear();
   ++markers_version_;
   ++mesh_generation_;

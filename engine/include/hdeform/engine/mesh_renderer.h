@@ -6,12 +6,14 @@
 /// rasterizer 12% of its frame). The same object draws into any target created with a
 /// compatible render pass (render_targets.h).
 #include <Eigen/Core>
+#include <memory>
 #include <optional>
 #include <span>
 #include <vector>
 
 #include "hdeform/engine/camera.h"
 #include "hdeform/engine/geometry_exchange.h"
+#include "hdeform/engine/mesh_buffers.h"
 #include "hdeform/engine/render_targets.h"
 #include "hdeform/engine/vulkan_context.h"
 #include "render_config.h"
@@ -80,6 +82,12 @@ class MeshRenderer {
   /// (off the frame loop: 0.3 s at 3.3 million triangles); else it is worked out here.
   void set_mesh(const Eigen::MatrixXi& triangles, GeometryExchange& geometry, const Bounds& rest, UpAxis up,
                 std::optional<bool> closed = std::nullopt);
+  /// The same with the mesh's buffers made and filled beforehand (mesh_buffers.h: the first
+  /// writes off the frame loop), for this renderer's frame_count() and `geometry`'s vertex count.
+  /// `closed` as above, worked out by the caller.
+  void set_mesh(std::unique_ptr<MeshBuffers> buffers, GeometryExchange& geometry, const Bounds& rest, UpAxis up, bool closed);
+  /// The frames in flight it was made for.
+  uint32_t frame_count() const { return static_cast<uint32_t>(frames_.size()); }
   /// A coarser set of triangles over the same vertices (proxy_mesh.h), drawn when the settings ask
   /// for it; empty: none. Reset by set_mesh.
   void set_proxy(const Eigen::MatrixXi& triangles);
