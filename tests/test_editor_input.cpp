@@ -286,10 +286,19 @@ TEST(SceneSlices, AStillPictureInSlicesAMovingOneWhole) {
   scan.same_scene = true;
   EXPECT_EQ(next_scene_slice(scan, kPerSlice), std::nullopt) << "shown, and nothing changed";
   scan.shown = false;
-  EXPECT_EQ(next_scene_slice(scan, kPerSlice), (SceneSlice{0, 4})) << "nothing shown (a new size)";
+  EXPECT_EQ(next_scene_slice(scan, kPerSlice), (SceneSlice{0, 4 + kFirstPictureRamp, kFirstPictureRamp})) << "nothing shown (a new size): smaller slices first";
   scan.same_scene = false;
   scan.moving = true;
-  EXPECT_EQ(next_scene_slice(scan, kPerSlice), (SceneSlice{0, 4})) << "the first picture, even of a moving view";
+  EXPECT_EQ(next_scene_slice(scan, kPerSlice), (SceneSlice{0, 4 + kFirstPictureRamp, kFirstPictureRamp})) << "the first picture, even of a moving view";
+  scan.same_scene = true;
+  scan.next_slice = 2;
+  scan.slices = 7;
+  scan.ramp = 3;
+  EXPECT_EQ(next_scene_slice(scan, kPerSlice), (SceneSlice{2, 7, 3})) << "the picture goes on with its ramp";
+  scan.slices = scan.next_slice = scan.ramp = 0;
+  scan.same_scene = false;
+  scan.triangles = 900'000;
+  EXPECT_EQ(next_scene_slice(scan, kPerSlice), (SceneSlice{0, 1})) << "one slice: no ramp";
   scan.triangles = 23'645;  // the proxy
   scan.shown = true;
   EXPECT_EQ(next_scene_slice(scan, kPerSlice), (SceneSlice{0, 1}));

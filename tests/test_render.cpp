@@ -519,6 +519,14 @@ TEST_F(Render, AProxyPublicationIsDrawnAsTheProxy) {
   EXPECT_GT(test::compare_images(whole, proxy_only, 0).differing_fraction, 0.0);  // the proxy, not the mesh
 }
 
+// A picture's parts with a ramp: the first ones double up to the size of the others.
+TEST(DrawSlice, ARampsPartsDoubleUpToTheOthers) {
+  // Parts of 1, 2, 4, 8, 8, 8, 8 units: 39 in all.
+  const double expected[] = {0, 1, 3, 7, 15, 23, 31, 39};
+  for (int k = 0; k <= 7; ++k) EXPECT_DOUBLE_EQ(engine::share_before({k, 7, 3}), expected[k] / 39.0) << "part " << k;
+  for (int k = 0; k <= 5; ++k) EXPECT_DOUBLE_EQ(engine::share_before({k, 5, 0}), k / 5.0) << "no ramp: equal parts";
+}
+
 TEST(VulkanContext, AnUnknownDeviceIsAClearError) {
   engine::ContextOptions options;
   options.device = "no-such-device-anywhere";

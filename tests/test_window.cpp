@@ -249,11 +249,12 @@ TEST_F(Window, APictureDrawnInSlicesShowsTheLastOneUntilItIsWholeAndThenTheSameP
   EXPECT_TRUE(same(sliced, whole)) << "the slices drew another picture than the whole draw";
   EXPECT_TRUE(same(drawing.draw_slice(std::nullopt), whole)) << "the picture kept is not the one shown";
 
-  // Another picture (the wireframe on, flat shading) in slices: the last one stays until it is whole.
+  // Another picture (the wireframe on, flat shading) in slices, the first two smaller: the last
+  // one stays until it is whole.
   drawing.settings.wireframe = true;
   drawing.settings.flat_shading = true;
-  for (int k = 0; k < 2; ++k) EXPECT_TRUE(same(drawing.draw_slice(engine::DrawSlice{k, 3}), whole)) << "slice " << k;
-  const engine::Pixels wired = drawing.draw_slice(engine::DrawSlice{2, 3});
+  for (int k = 0; k < 4; ++k) EXPECT_TRUE(same(drawing.draw_slice(engine::DrawSlice{k, 5, 2}), whole)) << "slice " << k;
+  const engine::Pixels wired = drawing.draw_slice(engine::DrawSlice{4, 5, 2});
   EXPECT_FALSE(same(wired, whole));
   EXPECT_TRUE(same(drawing.draw_slice(engine::DrawSlice{0, 1}), wired)) << "the slices drew another picture than the whole draw";
   // A picture started again drops the unfinished one; a slice out of turn is a programming error.

@@ -509,6 +509,7 @@ class EditorApp {
   BackgroundTask<bool> retiring_;               // letting go of the document another one replaced
   MotionDetail motion_detail_;
   std::size_t slice_triangles_ = 0;  // a picture of more triangles is drawn in slices (scene_slices.h); 0: whole
+  int scene_ramp_ = 0;               // the ramp of the picture being drawn in slices
   bool panel_behind_picture_ = false;  // the last frame completed a picture in slices after its panel was made
   bool refinement_settled_ = false;  // the latest publication's refinement converged (announced)
   Eigen::Index proxy_triangle_count_ = 0;

@@ -41,13 +41,15 @@ void EditorApp::render(ImDrawData* draw_data) {
                          .shown = target_->scene_kept(),
                          .next_slice = build.next,
                          .slices = build.slices,
+                         .ramp = scene_ramp_,
                          .moving = moving,
                          .triangles = transfer ? 0 : renderer_->prepared_triangles()};
   if (const auto slice = next_scene_slice(scene, target_->slices_supported() ? slice_triangles_ : 0)) {
     const trace::Scope traced(slice->count == 1 ? "scene pass" : "scene pass, a slice", "frame");
     target_->begin_scene(slot.commands, slice->index, slice->count);
+    scene_ramp_ = slice->ramp;
     if (transfer) transfer_->record(slot.commands, slot.index);
-    else renderer_->record(slot.commands, slot.index, extent, {slice->index, slice->count});
+    else renderer_->record(slot.commands, slot.index, extent, {slice->index, slice->count, slice->ramp});
     target_->end_scene(slot.commands);
     // This frame's panel was made before the picture was complete: the next one says so.
     panel_behind_picture_ = slice->count > 1 && target_->scene_build().slices == 0;

@@ -383,7 +383,8 @@ void EditorApp::draw_dialogs() {
     if (staging_shown && !saving() && !transfer_work) {
       std::snprintf(line, sizeof line, "%s: %d%%", stage_.what().c_str(), static_cast<int>(100.0 * staged_->done->load()));
     } else if (first_picture && !saving() && !transfer_work) {
-      std::snprintf(line, sizeof line, "Drawing %s: %d%%", std::filesystem::path(mesh_name_).filename().c_str(), 100 * build.next / build.slices);
+      std::snprintf(line, sizeof line, "Drawing %s: %d%%", std::filesystem::path(mesh_name_).filename().c_str(),
+                    static_cast<int>(100.0 * engine::share_before({build.next, build.slices, scene_ramp_})));
     } else {
       std::snprintf(line, sizeof line, "%c %s  (%.1f s)", spinner[static_cast<int>(busy_for * 8) % 4], what.c_str(), busy_for);
     }

@@ -171,7 +171,18 @@ std::vector<VkVertexInputAttributeDescription> mesh_attributes() {
           {3, HD_VERTEX_BINDING_ATTRIBUTES, VK_FORMAT_R32_UINT, sizeof(float)}};
 }
 
+// A picture's parts (DrawSlice) in units of the smallest: part k < ramp is 2^k of them and
+// every later one 2^ramp. The units in the parts before `part`.
+std::uint64_t units_before(int part, int ramp) {
+  const int ramped = std::min(part, ramp);
+  return ((std::uint64_t{1} << ramped) - 1) + static_cast<std::uint64_t>(part - ramped) * (std::uint64_t{1} << ramp);
+}
+
 }  // namespace
+
+double share_before(const DrawSlice& slice) {
+  return static_cast<double>(units_before(slice.index, slice.ramp)) / static_cast<double>(units_before(slice.count, slice.ramp));
+}
 
 MeshRenderer::MeshRenderer(const VulkanContext& context, VkRenderPass render_pass, const PassFormat& format, uint32_t frames_in_flight)
     : context_(context), frames_(frames_in_flight) {
@@ -476,8 +487,9 @@ void MeshRenderer::prepare(uint32_t frame_index, const Camera& camera, const Ren
 }
 
 void MeshRenderer::record(VkCommandBuffer commands, uint32_t frame_index, VkRect2D area, DrawSlice slice) const {
-  if (slice.count < 1 || slice.index < 0 || slice.index >= slice.count) {
-    throw std::logic_error("MeshRenderer::record: part " + std::to_string(slice.index) + " of " + std::to_string(slice.count));
+  if (slice.count < 1 || slice.index < 0 || slice.index >= slice.count || slice.ramp < 0 || slice.ramp > 16) {
+    throw std::logic_error("MeshRenderer::record: part " + std::to_string(slice.index) + " of " + std::to_string(slice.count) + ", ramp " +
+                           std::to_string(slice.ramp));
   }
   const bool last_slice = slice.index == slice.count - 1;
   const Frame& frame = frames_[frame_index];
@@ -494,12 +506,13 @@ void MeshRenderer::record(VkCommandBuffer commands, uint32_t frame_index, VkRect
     vkCmdBindVertexBuffers(commands, HD_VERTEX_BINDING_GEOMETRY, 2, buffers.data(), offsets.data());
     const bool proxy = (frame.settings.proxy || frame.geometry_proxy_only) && proxy_index_count_ > 0;
     // The whole picture's draws in order, the surface's triangles and then the wireframe's, cut
-    // into equal parts.
+    // into parts (units_before).
     const std::uint64_t triangles = (proxy ? proxy_index_count_ : index_count_) / 3;
     const bool wireframe = frame.settings.wireframe && wireframe_ != VK_NULL_HANDLE;
     const std::uint64_t all = triangles * (wireframe ? 2 : 1);
-    const std::uint64_t from = all * static_cast<std::uint64_t>(slice.index) / static_cast<std::uint64_t>(slice.count);
-    const std::uint64_t to = all * static_cast<std::uint64_t>(slice.index + 1) / static_cast<std::uint64_t>(slice.count);
+    const std::uint64_t units = units_before(slice.count, slice.ramp);
+    const std::uint64_t from = all * units_before(slice.index, slice.ramp) / units;
+    const std::uint64_t to = all * units_before(slice.index + 1, slice.ramp) / units;
     const auto draw = [&](std::uint64_t first, std::uint64_t end) {
       if (end > first) vkCmdDrawIndexed(commands, static_cast<uint32_t>(3 * (end - first)), 1, static_cast<uint32_t>(3 * first), 0, 0);
     };

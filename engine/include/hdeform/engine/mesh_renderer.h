@@ -54,11 +54,17 @@ inline uint32_t color_class(const Eigen::Vector3f& rgb) {
 /// Part `index` of `count` of a picture drawn over several scene passes (SwapchainTarget's
 /// slices): that share of the mesh's triangles, in their order; the ground, markers and legend
 /// with the last part. Drawn one after another over the same colour and depth, the parts give the
-/// picture drawn whole, pixel for pixel.
+/// picture drawn whole, pixel for pixel. The first `ramp` parts are 1/2^ramp, …, 1/4, 1/2 of the
+/// others (a first picture's first slice also draws into memory the device has not used yet).
 struct DrawSlice {
   int index = 0;
   int count = 1;
+  int ramp = 0;  ///< 0 to 16
 };
+
+/// The share of a picture's draws in the parts before `slice.index`: 0 at the first part, 1 past
+/// the last.
+double share_before(const DrawSlice& slice);
 
 /// A dot drawn at a position (transfer mode's marker pairs).
 struct Marker {
