@@ -299,7 +299,9 @@ void MeshRenderer::release_mesh_buffers() {
 
 void MeshRenderer::set_mesh(const Eigen::MatrixXi& triangles, GeometryExchange& geometry, const Bounds& rest, UpAxis up, std::optional<bool> closed) {
   auto buffers = std::make_unique<MeshBuffers>(context_, geometry.vertex_count(), static_cast<std::size_t>(triangles.rows()), frame_count());
-  buffers->fill(triangles, nullptr);
+  // The newest geometry written now, as the first prepare() would (this is the reading thread):
+  // then that frame uploads nothing, and the buffers' pages are written once.
+  buffers->fill(triangles, geometry.acquire());
   set_mesh(std::move(buffers), geometry, rest, up, closed ? *closed : every_edge_has_its_reverse(triangles, static_cast<Eigen::Index>(geometry.vertex_count())));
 }
 

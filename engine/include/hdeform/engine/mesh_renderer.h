@@ -83,7 +83,8 @@ class MeshRenderer {
   MeshRenderer& operator=(const MeshRenderer&) = delete;
 
   /// A new mesh (waits until the device is idle). Its geometry then comes from `geometry`, which
-  /// must outlive this renderer or the next set_mesh; `rest` places the ground and the camera.
+  /// must outlive this renderer or the next set_mesh, and is read on the thread that calls this
+  /// and prepare(); `rest` places the ground and the camera.
   /// `closed`: every_edge_has_its_reverse(triangles), where the caller has worked it out already
   /// (off the frame loop: 0.3 s at 3.3 million triangles); else it is worked out here.
   void set_mesh(const Eigen::MatrixXi& triangles, GeometryExchange& geometry, const Bounds& rest, UpAxis up,
