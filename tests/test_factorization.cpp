@@ -7,6 +7,7 @@
 #include <limits>
 #include <span>
 #include <vector>
+#include <numeric>
 #include <optional>
 #include <string>
 #include <unistd.h>
@@ -216,19 +217,59 @@ void expect_top_chains_follow_the_tree(std::span<const int> parent, std::span<co
   EXPECT_EQ(children + roots, static_cast<std::size_t>(chains.count()));
 }
 
+// A split of a tree: the top and the subtrees partition the nodes, each list ascending; the top is
+// closed under ancestors and each worker's nodes under descendants (a node's parent is in its
+// worker's list or in the top). Returns the span: the top's work plus the busiest worker's.
+double expect_a_split_of_the_tree(std::span<const int> parent, std::span<const double> work, const detail::EliminationSchedule& schedule) {
+  std::vector<int> owner(parent.size(), -2);  // −1: the top
+  auto claim = [&](const std::vector<int>& nodes, int who) {
+    EXPECT_TRUE(std::is_sorted(nodes.begin(), nodes.end()));
+    for (const int node : nodes) {
+      EXPECT_EQ(owner[static_cast<std::size_t>(node)], -2) << "node " << node << " listed twice";
+      owner[static_cast<std::size_t>(node)] = who;
+    }
+  };
+  claim(schedule.top, -1);
+  for (std::size_t part = 0; part < schedule.subtrees.size(); ++part) claim(schedule.subtrees[part], static_cast<int>(part));
+  double top = 0.0;
+  std::vector<double> load(schedule.subtrees.size(), 0.0);
+  for (std::size_t node = 0; node < parent.size(); ++node) {
+    EXPECT_NE(owner[node], -2) << "node " << node << " in no list";
+    const int up = parent[node];
+    const int up_owner = up < 0 ? -1 : owner[static_cast<std::size_t>(up)];
+    if (owner[node] == -1) {
+      top += work[node];
+      EXPECT_EQ(up_owner, -1) << "top node " << node << " below a subtree's node";
+    } else if (owner[node] >= 0) {
+      load[static_cast<std::size_t>(owner[node])] += work[node];
+      EXPECT_TRUE(up_owner == -1 || up_owner == owner[node]) << "node " << node << " and its parent on two workers";
+    }
+  }
+  return top + (load.empty() ? 0.0 : *std::max_element(load.begin(), load.end()));
+}
+
 TEST(EliminationSchedule, TheTopsChainsFollowTheTree) {
   const auto matrix = split_matrix();
   const auto permuted = detail::permuted_matrix(matrix, elimination_ranks(matrix));
-  const detail::FactorPattern pattern = detail::analyse_pattern(permuted, 2);
-  std::vector<double> work(static_cast<std::size_t>(pattern.size()));
-  for (int j = 0; j < pattern.size(); ++j) work[static_cast<std::size_t>(j)] = static_cast<double>(pattern.column_length(j));
+  detail::FactorPattern pattern = detail::analyse_pattern(permuted, 2);
+  std::vector<double> column_work(static_cast<std::size_t>(pattern.size())), sweep_work(column_work.size());
+  for (int j = 0; j < pattern.size(); ++j) {
+    column_work[static_cast<std::size_t>(j)] = static_cast<double>(pattern.column_length(j));
+    sweep_work[static_cast<std::size_t>(j)] = column_work[static_cast<std::size_t>(j)] + (pattern.row_start[static_cast<std::size_t>(j) + 1] - pattern.row_start[static_cast<std::size_t>(j)]);
+  }
   for (const int parts : {1, 2, 3, 8}) {
     SCOPED_TRACE(parts);
-    const auto schedule = detail::split_elimination_tree(pattern.parent, work, parts);
-    expect_top_chains_follow_the_tree(pattern.parent, work, schedule);
-    if (parts > 1) {
-      // A top that branches, so that the solves' tests run sibling chains side by side.
-      const auto& chains = schedule.top_chains;
+    const auto schedule = detail::split_elimination_tree(pattern.parent, column_work, parts);
+    expect_a_split_of_the_tree(pattern.parent, column_work, schedule);
+    expect_top_chains_follow_the_tree(pattern.parent, column_work, schedule);
+    detail::schedule_sweeps(pattern, parts);
+    EXPECT_EQ(pattern.schedule.subtrees.size(), parts > 1 ? static_cast<std::size_t>(parts) : 0u);
+    expect_a_split_of_the_tree(pattern.parent, sweep_work, pattern.schedule);
+    expect_top_chains_follow_the_tree(pattern.parent, sweep_work, pattern.schedule);
+    if (parts > 2) {
+      // A top that branches, so that the solves' tests on three threads run sibling chains side
+      // by side (on two, the least span keeps one chain of the root's separators).
+      const auto& chains = pattern.schedule.top_chains;
       EXPECT_GT(chains.count(), 2);
       EXPECT_TRUE(std::any_of(chains.child_start.begin(), chains.child_start.end() - 1,
                               [&, c = 0](int) mutable { return chains.children_of(c++).size() >= 2; }));
@@ -241,6 +282,68 @@ TEST(EliminationSchedule, TheTopsChainsFollowTheTree) {
   expect_top_chains_follow_the_tree(forest, ones, schedule);
   EXPECT_EQ(schedule.top_chains.count(), 3);
   EXPECT_EQ(schedule.top_chains.roots.size(), 3u);
+}
+
+// Appends a path of `length` nodes of work 1 (each the parent of the one before it) and returns
+// its last node; `below`, when given, becomes the child of its first node.
+int append_path(std::vector<int>& parent, int length, std::vector<int> below = {}) {
+  const int first = static_cast<int>(parent.size());
+  for (int k = 0; k < length; ++k) parent.push_back(-1);
+  for (int k = 0; k + 1 < length; ++k) parent[static_cast<std::size_t>(first + k)] = first + k + 1;
+  for (const int child : below) parent[static_cast<std::size_t>(child)] = first;
+  return first + length - 1;
+}
+
+// The sweeps' split against spans worked out by hand: a root path of 24 nodes over three paths of
+// 500, 300 and 250 nodes (every node of work 1). On two workers the least span is the root path
+// on one thread, then the 500 beside the 300 and the 250: 24 + 550. On three, 24 + 500. The even
+// packing's top (every subtree down to a sixteenth of a share) is far from it.
+TEST(EliminationSchedule, TheSweepsSplitHasTheLeastSpan) {
+  std::vector<int> parent;
+  const int a = append_path(parent, 500), b = append_path(parent, 300), c = append_path(parent, 250);
+  append_path(parent, 24, {a, b, c});
+  const std::vector<double> ones(parent.size(), 1.0);
+  const auto two = detail::split_elimination_tree(parent, ones, 2, detail::SplitGoal::LeastSpan);
+  EXPECT_EQ(expect_a_split_of_the_tree(parent, ones, two), 574.0);
+  EXPECT_EQ(two.top.size(), 24u);
+  const auto three = detail::split_elimination_tree(parent, ones, 3, detail::SplitGoal::LeastSpan);
+  EXPECT_EQ(expect_a_split_of_the_tree(parent, ones, three), 524.0);
+  const auto even = detail::split_elimination_tree(parent, ones, 2);
+  EXPECT_GT(expect_a_split_of_the_tree(parent, ones, even), 574.0 + 100.0);
+
+  // A second copy beside it, a forest of two trees of 1,074 nodes: on two workers, a tree each and
+  // no top.
+  const auto offset = static_cast<int>(parent.size());
+  for (std::size_t node = 0; node < static_cast<std::size_t>(offset); ++node) parent.push_back(parent[node] < 0 ? -1 : parent[node] + offset);
+  const std::vector<double> forest_ones(parent.size(), 1.0);
+  const auto forest = detail::split_elimination_tree(parent, forest_ones, 2, detail::SplitGoal::LeastSpan);
+  EXPECT_EQ(expect_a_split_of_the_tree(parent, forest_ones, forest), 1074.0);
+  EXPECT_TRUE(forest.top.empty());
+  // Not worth splitting at all: one worker, or a tree too small.
+  EXPECT_TRUE(detail::split_elimination_tree(parent, forest_ones, 1, detail::SplitGoal::LeastSpan).subtrees.empty());
+  const std::vector<int> small{2, 2, -1};
+  EXPECT_EQ(detail::split_elimination_tree(small, std::vector<double>(3, 1.0), 2, detail::SplitGoal::LeastSpan).top.size(), 3u);
+}
+
+// On a mesh's factor (the cactus) the sweeps' split leaves a span no longer than the even
+// packing's, and between an even share of the work and all of it.
+TEST(EliminationSchedule, TheSweepsSplitBeatsTheEvenPackingOnAMesh) {
+  const auto matrix = split_matrix();
+  const auto permuted = detail::permuted_matrix(matrix, elimination_ranks(matrix));
+  detail::FactorPattern pattern = detail::analyse_pattern(permuted, 2);
+  std::vector<double> work(static_cast<std::size_t>(pattern.size()));
+  for (int j = 0; j < pattern.size(); ++j) {
+    work[static_cast<std::size_t>(j)] = static_cast<double>(pattern.column_length(j) + (pattern.row_start[static_cast<std::size_t>(j) + 1] - pattern.row_start[static_cast<std::size_t>(j)]));
+  }
+  const double total = std::accumulate(work.begin(), work.end(), 0.0);
+  for (const int parts : {2, 3, 8}) {
+    SCOPED_TRACE(parts);
+    const double least = expect_a_split_of_the_tree(pattern.parent, work, detail::split_elimination_tree(pattern.parent, work, parts, detail::SplitGoal::LeastSpan));
+    const double even = expect_a_split_of_the_tree(pattern.parent, work, detail::split_elimination_tree(pattern.parent, work, parts));
+    EXPECT_LE(least, even);
+    EXPECT_LT(least, total);
+    EXPECT_GE(least, total / parts);
+  }
 }
 
 // Many columns (harmonic coordinates: one per marker) are solved as whole solves side by side,

@@ -169,7 +169,6 @@ void adopt(const Eigen::SparseMatrix<double>& lower, std::vector<int> factor_row
   pattern.rows.resize(nonzeros);  // one row list per column: no sharing
   factor.column_value.resize(nonzeros);
   pattern.parent.assign(n, -1);
-  std::vector<double> work(n);
   const int* outer = lower.outerIndexPtr();
   std::size_t next = 0;
   for (std::size_t j = n; j-- > 0;) {
@@ -180,11 +179,10 @@ void adopt(const Eigen::SparseMatrix<double>& lower, std::vector<int> factor_row
       factor.column_value[next] = lower.valuePtr()[p];
     }
     pattern.column_end[j] = next;
-    work[j] = outer[j + 1] - outer[j];
     // The parent of column j is the first row below the diagonal.
     if (outer[j + 1] - outer[j] > 1) pattern.parent[j] = lower.innerIndexPtr()[outer[j] + 1];
   }
-  pattern.schedule = detail::split_elimination_tree(pattern.parent, work, tbb::this_task_arena::max_concurrency());
+  detail::schedule_sweeps(pattern, tbb::this_task_arena::max_concurrency());
   factor.analysis = std::move(analysis);
 }
 

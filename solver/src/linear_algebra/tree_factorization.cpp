@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <limits>
 #include <numeric>
 #include <utility>
 
@@ -167,9 +168,24 @@ TopChains top_chains(std::span<const int> parent, std::span<const double> work, 
   return chains;
 }
 
+// Subtrees (work, root) packed largest first onto the least loaded of `parts` workers, ties by
+// root so that the packing is deterministic: calls assign(root, worker) for each and returns the
+// busiest worker's load. Sorts `subtrees`.
+template <class Assign>
+double pack_largest_first(std::vector<std::pair<double, int>>& subtrees, int parts, Assign&& assign) {
+  std::sort(subtrees.begin(), subtrees.end(), [](const auto& a, const auto& b) { return a.first != b.first ? a.first > b.first : a.second < b.second; });
+  std::vector<double> load(static_cast<std::size_t>(parts), 0.0);
+  for (const auto& [subtree, root] : subtrees) {
+    const auto worker = static_cast<std::size_t>(std::min_element(load.begin(), load.end()) - load.begin());
+    load[worker] += subtree;
+    assign(root, static_cast<int>(worker));
+  }
+  return *std::max_element(load.begin(), load.end());
+}
+
 }  // namespace
 
-EliminationSchedule split_elimination_tree(std::span<const int> parent, std::span<const double> work, int parts) {
+EliminationSchedule split_elimination_tree(std::span<const int> parent, std::span<const double> work, int parts, SplitGoal goal) {
   EliminationSchedule schedule;
   const int n = static_cast<int>(parent.size());
   if (parts <= 1 || n < 1024) {
@@ -186,8 +202,11 @@ EliminationSchedule split_elimination_tree(std::span<const int> parent, std::spa
   }
   const Children tree = children_of(parent);
 
-  // Proportional splitting: take the largest subtree's root into the top part until every
-  // subtree is small enough for an even packing onto the workers.
+  // Both goals take the largest subtree's root into the top, one root at a time, and differ in
+  // where they stop. EvenPacking: once every subtree is small enough for an even packing onto the
+  // workers. LeastSpan: at the count of roots taken that gave the least span, looking on while a
+  // larger top could still give less (its span is at least the top's work plus an even share of
+  // the rest, which grows with the top).
   const double grain = total / (16.0 * parts);
   const double top_limit = 0.25 * total;
   std::vector<std::pair<double, int>> heap;
@@ -195,33 +214,55 @@ EliminationSchedule split_elimination_tree(std::span<const int> parent, std::spa
     if (parent[static_cast<std::size_t>(j)] < 0) heap.emplace_back(subtree_work[static_cast<std::size_t>(j)], j);
   }
   std::make_heap(heap.begin(), heap.end());
+  std::vector<int> taken;
   double top_work = 0.0;
-  while (!heap.empty() && heap.front().first > grain && top_work < top_limit) {
+  std::size_t best_count = 0;
+  double best_span = std::numeric_limits<double>::infinity();
+  std::vector<std::pair<double, int>> packing;
+  bool branched = true;
+  while (!heap.empty()) {
+    if (goal == SplitGoal::EvenPacking) {
+      if (heap.front().first <= grain || top_work >= top_limit) break;
+    } else {
+      if (branched) {
+        packing.assign(heap.begin(), heap.end());
+        if (const double span = top_work + pack_largest_first(packing, parts, [](int, int) {}); span < best_span) {
+          best_span = span;
+          best_count = taken.size();
+        }
+      }
+      if (top_work + (total - top_work) / parts >= best_span) break;
+    }
     std::pop_heap(heap.begin(), heap.end());
     const int root = heap.back().second;
     heap.pop_back();
-    schedule.top.push_back(root);
+    taken.push_back(root);
     top_work += work[static_cast<std::size_t>(root)];
+    // A root with one child hands its subtree on less itself: the top grows by what the packing
+    // could lose at most, so only tops that end where the tree branches (or at a leaf) are packed.
+    branched = tree.child_start[static_cast<std::size_t>(root) + 1] - tree.child_start[static_cast<std::size_t>(root)] != 1;
     for (int c = tree.child_start[static_cast<std::size_t>(root)]; c < tree.child_start[static_cast<std::size_t>(root) + 1]; ++c) {
       const int child = tree.children[static_cast<std::size_t>(c)];
       heap.emplace_back(subtree_work[static_cast<std::size_t>(child)], child);
       std::push_heap(heap.begin(), heap.end());
     }
   }
-  // Largest first onto the least loaded worker; ties by root index keep it deterministic.
-  std::sort(heap.begin(), heap.end(), [](const auto& a, const auto& b) { return a.first != b.first ? a.first > b.first : a.second < b.second; });
-  std::vector<double> load(static_cast<std::size_t>(parts), 0.0);
+  if (goal == SplitGoal::EvenPacking) best_count = taken.size();
+  taken.resize(best_count);
+  schedule.top = taken;
+  std::vector<char> in_top(static_cast<std::size_t>(n), 0);
+  for (const int node : schedule.top) in_top[static_cast<std::size_t>(node)] = 1;
+  // The subtrees left: every node outside the top whose parent is in it, and the roots outside it.
+  heap.clear();
+  for (int j = 0; j < n; ++j) {
+    const int p = parent[static_cast<std::size_t>(j)];
+    if (in_top[static_cast<std::size_t>(j)] == 0 && (p < 0 || in_top[static_cast<std::size_t>(p)] != 0)) heap.emplace_back(subtree_work[static_cast<std::size_t>(j)], j);
+  }
   // Every node's worker (−1: the top), then each worker's nodes in ascending order: a node's
   // parent comes after it, so a node takes its parent's worker unless it is a subtree's root.
   std::vector<int> worker_of(static_cast<std::size_t>(n), -1);
   std::vector<std::size_t> counts(static_cast<std::size_t>(parts), 0);
-  for (const auto& [subtree, root] : heap) {
-    const auto worker = static_cast<std::size_t>(std::min_element(load.begin(), load.end()) - load.begin());
-    load[worker] += subtree;
-    worker_of[static_cast<std::size_t>(root)] = static_cast<int>(worker);
-  }
-  std::vector<char> in_top(static_cast<std::size_t>(n), 0);
-  for (const int node : schedule.top) in_top[static_cast<std::size_t>(node)] = 1;
+  pack_largest_first(heap, parts, [&](int root, int worker) { worker_of[static_cast<std::size_t>(root)] = worker; });
   for (int j = n; j-- > 0;) {
     const auto node = static_cast<std::size_t>(j);
     if (in_top[node] != 0) continue;
@@ -449,10 +490,17 @@ FactorPattern analyse_pattern(const PermutedMatrix& matrix, int parts) {
     }
   }
 
-  // A solve's sweeps cost a column its length.
-  const std::vector<double> work(column_count.begin(), column_count.end());
-  pattern.schedule = split_elimination_tree(pattern.parent, work, parts);
+  schedule_sweeps(pattern, parts);
   return pattern;
+}
+
+void schedule_sweeps(FactorPattern& pattern, int parts) {
+  const auto size = static_cast<std::size_t>(pattern.size());
+  std::vector<double> work(size);
+  for (std::size_t j = 0; j < size; ++j) {
+    work[j] = static_cast<double>(pattern.row_start[j + 1] - pattern.row_start[j]) + static_cast<double>(pattern.column_length(static_cast<int>(j)));
+  }
+  pattern.schedule = split_elimination_tree(pattern.parent, work, parts, SplitGoal::LeastSpan);
 }
 
 }  // namespace hdeform::detail

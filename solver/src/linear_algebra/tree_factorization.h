@@ -56,8 +56,21 @@ struct EliminationSchedule {
   TopChains top_chains;
 };
 
+// What a split of the tree aims for.
+enum class SplitGoal {
+  // The factorization: subtrees small enough to pack evenly (a sixteenth of a worker's share),
+  // the top taking at most a quarter of the work. Its supernodes near the root hold most of the
+  // arithmetic, and the blocked kernels there use every thread.
+  EvenPacking,
+  // The solve's sweeps: the least span, the top's work (on one thread, as the sweeps run most of
+  // it) plus the busiest worker's. An entry of L costs a sweep the same wherever it lies, so the
+  // even packing's top held a third of the Buddha's sweeps, most of it on one thread.
+  LeastSpan,
+};
+
 // parent[j]: j's parent in the tree (parent[j] > j), −1 for a root; work[j]: the cost of node j.
-EliminationSchedule split_elimination_tree(std::span<const int> parent, std::span<const double> work, int parts);
+EliminationSchedule split_elimination_tree(std::span<const int> parent, std::span<const double> work, int parts,
+                                           SplitGoal goal = SplitGoal::EvenPacking);
 
 // Runs `body(workspace, node)` for every node of a schedule: the subtrees concurrently (one
 // workspace each, nodes ascending), then the top nodes ascending on the calling thread with the
@@ -123,7 +136,7 @@ struct FactorPattern {
   std::vector<std::size_t> rows_of_column;
   UninitializedVector<int> rows;
   std::vector<int> parent;
-  EliminationSchedule schedule;  // for the solve sweeps: columns weighted by their length
+  EliminationSchedule schedule;  // for the solve sweeps (schedule_sweeps)
   Supernodes supernodes;         // for the factorization (empty when another backend computed L)
 
   int size() const { return static_cast<int>(parent.size()); }
@@ -156,6 +169,10 @@ inline constexpr int kBlockedPanelWidth = 32;
 // Elimination tree, supernodes, the pattern of L in both layouts and their splits for `parts`
 // workers.
 FactorPattern analyse_pattern(const PermutedMatrix& matrix, int parts);
+
+// pattern.schedule for `parts` workers, from the pattern's rows, columns and tree: each node costs
+// its row (the forward sweep) and its column (the backward sweep).
+void schedule_sweeps(FactorPattern& pattern, int parts);
 
 // L's values in both layouts of `pattern` (row_value by rows, column_value by stored columns).
 // Returns false when the matrix is not positive definite. The row layout may be float, for a
