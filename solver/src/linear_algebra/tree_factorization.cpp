@@ -253,16 +253,16 @@ EliminationSchedule split_elimination_tree(std::span<const int> parent, std::spa
   std::vector<char> in_top(static_cast<std::size_t>(n), 0);
   for (const int node : schedule.top) in_top[static_cast<std::size_t>(node)] = 1;
   // The subtrees left: every node outside the top whose parent is in it, and the roots outside it.
-  heap.clear();
+  std::vector<std::pair<double, int>> subtrees;
   for (int j = 0; j < n; ++j) {
     const int p = parent[static_cast<std::size_t>(j)];
-    if (in_top[static_cast<std::size_t>(j)] == 0 && (p < 0 || in_top[static_cast<std::size_t>(p)] != 0)) heap.emplace_back(subtree_work[static_cast<std::size_t>(j)], j);
+    if (in_top[static_cast<std::size_t>(j)] == 0 && (p < 0 || in_top[static_cast<std::size_t>(p)] != 0)) subtrees.emplace_back(subtree_work[static_cast<std::size_t>(j)], j);
   }
   // Every node's worker (−1: the top), then each worker's nodes in ascending order: a node's
   // parent comes after it, so a node takes its parent's worker unless it is a subtree's root.
   std::vector<int> worker_of(static_cast<std::size_t>(n), -1);
   std::vector<std::size_t> counts(static_cast<std::size_t>(parts), 0);
-  pack_largest_first(heap, parts, [&](int root, int worker) { worker_of[static_cast<std::size_t>(root)] = worker; });
+  pack_largest_first(subtrees, parts, [&](int root, int worker) { worker_of[static_cast<std::size_t>(root)] = worker; });
   for (int j = n; j-- > 0;) {
     const auto node = static_cast<std::size_t>(j);
     if (in_top[node] != 0) continue;
