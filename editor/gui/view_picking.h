@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include "hdeform/engine/geometry_exchange.h"
@@ -53,7 +54,7 @@ class ViewPicker {
       if (outcome.result) {
         picker_ = std::move(*outcome.result);
         version_ = building_version_;
-        refitted_at_ = {};  // built on the rest shape, never on one shown: even the outline refits
+        refitted_at_.reset();  // built on the rest shape, never on one shown: even the outline refits
       }
     }
     if (!picker_) {
@@ -61,7 +62,7 @@ class ViewPicker {
       picker_ = std::make_unique<MeshPicker>(triangles, shown->position_normal);
       refitted_at_ = std::chrono::steady_clock::now();
     } else if (version_ != shown->version) {
-      if (need == Need::Outline && std::chrono::steady_clock::now() - refitted_at_ < outline_lag_) return picker_.get();
+      if (need == Need::Outline && refitted_at_ && std::chrono::steady_clock::now() - *refitted_at_ < outline_lag_) return picker_.get();
       {
         const trace::Scope traced("picker (refit)", "input");
         picker_->refit(shown->position_normal);
@@ -83,7 +84,10 @@ class ViewPicker {
   std::unique_ptr<MeshPicker> picker_;
   std::uint64_t version_ = 0;
   std::chrono::milliseconds outline_lag_;
-  std::chrono::steady_clock::time_point refitted_at_;  // the picker's shape was last made current
+  // When the picker's shape was last made one shown; none for one built on the rest shape. (Not
+  // the clock's epoch: steady_clock counts from boot, so a machine up for less than the lag would
+  // take the rest shape for a recent one.)
+  std::optional<std::chrono::steady_clock::time_point> refitted_at_;
   BackgroundTask<std::unique_ptr<MeshPicker>> building_;
   std::uint64_t building_version_ = 0;
 };
