@@ -252,6 +252,8 @@ void ArapRefinement::fit() {
   status_.settled = !fell_back && options_.settle > 0.0 && status_.largest_step <= options_.settle;
   status_.converged = !fell_back && (energy <= energy_floor_ || energy_ - energy <= options_.tolerance * std::abs(energy_) || status_.settled);
   energy_ = energy;
+  ++status_.iterations;
+  status_.energy = energy_;
   timings_.rotations_ms = milliseconds_since(start);
 }
 

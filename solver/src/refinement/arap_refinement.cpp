@@ -491,15 +491,13 @@ void ArapRefinement::mix() {
   timings_.acceleration_ms = milliseconds_since(start);
 }
 
-void ArapRefinement::finish(Eigen::MatrixXd& positions) {
+void ArapRefinement::write(Eigen::MatrixXd& positions) const {
   const auto free_count = static_cast<std::size_t>(system_.free_count());
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, free_count, 4096), [&](const auto& range) {
     for (std::size_t row = range.begin(); row != range.end(); ++row) {
       for (int k = 0; k < 3; ++k) positions(vertex_[row], k) = positions_[kStride * row + static_cast<std::size_t>(k)];
     }
   });
-  ++status_.iterations;
-  status_.energy = energy_;
 }
 
 }  // namespace hdeform::detail

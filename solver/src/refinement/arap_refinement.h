@@ -81,9 +81,9 @@ class ArapRefinement {
   void assemble();  // right-hand side from the current rotations
   void solve();
   void mix();       // Anderson acceleration (or the plain step): the next positions
-  void fit();       // rotations fitted to them and the energy; falls back to the plain step if it rose
-  // Writes the free rows of `positions` and closes the iteration's bookkeeping.
-  void finish(Eigen::MatrixXd& positions);
+  void fit();       // rotations fitted to them and the energy (falls back to the plain step if it rose); closes the iteration
+  // Writes the free rows of `positions`: once after a run of iterations, since no stage reads them.
+  void write(Eigen::MatrixXd& positions) const;
 
   const RefinementStatus& status() const { return status_; }
   const RefinementTimings& timings() const { return timings_; }
