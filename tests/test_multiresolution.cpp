@@ -122,6 +122,26 @@ TEST(Multiresolution, FixedAndHandleVerticesEndWhereTheirConstraintsPutThem) {
   check("refined");
 }
 
+// On a base, refined iterations left unwritten leave the fine mesh alone; written, the fine mesh
+// is rebuilt from the base they reached: what refine() gives, to the last bit.
+TEST(Multiresolution, RefinedIterationsLeftUnwrittenAreRebuiltWithTheBitsOfRefine) {
+  const Relief relief = bar_with_relief();
+  DeformerOptions options = multiresolution(relief.mesh.vertex_count() / 8);
+  options.prepare_refinement = true;
+  Deformer unwritten(relief.mesh, relief.constraints, options), written(relief.mesh, relief.constraints, options);
+  ASSERT_LT(unwritten.solved_mesh().vertex_count(), relief.mesh.vertex_count());
+  Eigen::MatrixXd positions, expected;
+  unwritten.deform(std::span(&relief.transform, 1), positions);
+  written.deform(std::span(&relief.transform, 1), expected);
+  const Eigen::MatrixXd papers = positions;
+  ASSERT_EQ(unwritten.refine_unwritten(positions, 4), 4);
+  EXPECT_TRUE((positions.array() == papers.array()).all());
+  ASSERT_EQ(written.refine(expected, 4), 4);
+  ASSERT_GT((expected - papers).cwiseAbs().maxCoeff(), 1e-6 * relief.diagonal);
+  unwritten.write_refined(positions);
+  EXPECT_TRUE((positions.array() == expected.array()).all());
+}
+
 // The editor's drag asks for a proxy's vertices alone: those come out with the bits the whole
 // update gives them, the others are left as they were, and complete() then gives the whole
 // update to the last bit; an exact solve writes every vertex anyway.

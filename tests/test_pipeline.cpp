@@ -122,6 +122,37 @@ TEST(UpdatePipeline, RefinementFollowsThePapersUpdateAndANewRequestInterruptsIt)
   EXPECT_EQ(seen.back().iterations, 0);
 }
 
+// Shown a few times a second (the editor on a CPU device), a settling shape skips the frames
+// between: the iterations in between are not written, and the last one published is the
+// refined shape itself, to the last bit.
+TEST(UpdatePipeline, IterationsBetweenPublicationsAreSkippedAndTheLastIsTheRefinedShape) {
+  auto shape = make_shape(ShapeKind::Cylinder, 16);
+  DeformerOptions options;
+  options.prepare_refinement = true;
+  Deformer deformer(shape.mesh, shape.demo_constraints, options);
+  std::mutex mutex;
+  std::vector<int> iterations;
+  Eigen::MatrixXd last;
+  UpdatePipeline pipeline(deformer, [&](const UpdatePipeline::Result& result) {
+    std::lock_guard lock(mutex);
+    iterations.push_back(result.refinement.iterations);
+    last = result.positions;
+  });
+  pipeline.set_refinement_publication_interval(std::chrono::hours(1));
+  pipeline.set_refinement(true);
+  pipeline.submit(std::span(&shape.demo_transform, 1));
+  pipeline.wait_idle();
+  Deformer alone(shape.mesh, shape.demo_constraints, options);
+  Eigen::MatrixXd expected;
+  alone.deform(std::span(&shape.demo_transform, 1), expected);
+  const int needed = alone.refine(expected, 1000);
+  ASSERT_GT(needed, 3);
+  std::lock_guard lock(mutex);
+  // The paper's update, then the converged shape: none in between within the hour.
+  EXPECT_EQ(iterations, (std::vector<int>{0, needed}));
+  EXPECT_EQ(last, expected);
+}
+
 TEST(UpdatePipeline, WithADelayRefinementWaitsForTheInputToRest) {
   auto shape = make_shape(ShapeKind::Cylinder, 12);
   DeformerOptions options;

@@ -318,6 +318,36 @@ TEST(Refinement, EachPoseGivesTheSameBitsAsAFreshDeformerWhateverCameBefore) {
   }
 }
 
+// Iterations that a caller does not show (the editor's, between two frames of a settling shape)
+// leave the positions alone; written afterwards, they are what refine() writes, to the last bit.
+TEST(Refinement, IterationsLeftUnwrittenAreWrittenWithTheBitsOfRefine) {
+  const Drag drag;
+  const HandleTransform pose = sideways_by(drag, 1.0);
+  Deformer unwritten(drag.shape.mesh, drag.shape.demo_constraints, refined()), written(drag.shape.mesh, drag.shape.demo_constraints, refined());
+  Eigen::MatrixXd positions, expected;
+  unwritten.deform(std::span(&pose, 1), positions);
+  written.deform(std::span(&pose, 1), expected);
+  const Eigen::MatrixXd papers = positions;
+  unwritten.write_refined(positions);
+  EXPECT_EQ(positions, papers) << "nothing refined yet: nothing to write";
+  for (const int run : {3, 2, 1}) {
+    SCOPED_TRACE("a run of " + std::to_string(run));
+    const Eigen::MatrixXd before = positions;
+    ASSERT_EQ(unwritten.refine_unwritten(positions, run), run);
+    EXPECT_EQ(positions, before);
+    ASSERT_EQ(written.refine(expected, run), run);
+    ASSERT_NE(expected, before);
+    unwritten.write_refined(positions);
+    EXPECT_EQ(positions, expected);
+    EXPECT_EQ(unwritten.refinement_status().energy, written.refinement_status().energy);
+  }
+  // A new edit: nothing refined since, nothing written.
+  unwritten.deform(std::span(&pose, 1), positions);
+  const Eigen::MatrixXd again = positions;
+  unwritten.write_refined(positions);
+  EXPECT_EQ(positions, again);
+}
+
 // A start from the last edit (a drag shown live) reports the pose's own unrefined energy, and one
 // that does worse than the paper's result goes on from there to where a fresh run goes: it is
 // never taken for converged.

@@ -212,9 +212,16 @@ class Deformer {
 
   /// As-rigid-as-possible refinement (refinement.h) of the last deform(): runs up to
   /// `max_iterations` local/global iterations, fewer once they have converged (RefinementOptions),
-  /// writing the free rows of `positions` (the buffer deform() filled) after each. Successive calls
+  /// then writes the free rows of `positions` (the buffer deform() filled). Successive calls
   /// continue the same edit. Returns the iterations run. Allocation-free after the first call.
   int refine(Eigen::MatrixXd& positions, int max_iterations);
+  /// refine() that leaves `positions` as they are, for a caller that shows only some of the
+  /// iterations: write_refined() writes the shape they reached. On a base the write is the fine
+  /// mesh's rebuild, as long as the base's iteration at scan resolution.
+  int refine_unwritten(const Eigen::MatrixXd& positions, int max_iterations);
+  /// Writes what refine() would have written after the iterations run since the last deform()
+  /// (nothing if none ran).
+  void write_refined(Eigen::MatrixXd& positions);
   /// ... one iteration at a time, for a caller that shows each (false once converged).
   bool refine_once(Eigen::MatrixXd& positions) { return refine(positions, 1) == 1 && !refinement_status().converged; }
   /// Where the last refine() stands: iterations, energies, converged or settled.

@@ -119,6 +119,7 @@ class UpdatePipeline {
   std::uint64_t superseded_ = 0;
   std::exception_ptr error_;
   Eigen::MatrixXd positions_;
+  bool refined_unwritten_ = false;  ///< iterations ran that positions_ do not show yet (the pipeline's thread only)
   std::thread thread_;  ///< last: starts once every member above exists
 };
 

@@ -541,14 +541,22 @@ void Deformer::complete(Eigen::MatrixXd& positions) {
 }
 
 int Deformer::refine(Eigen::MatrixXd& positions, int max_iterations) {
+  const int iterations = refine_unwritten(positions, max_iterations);
+  if (iterations > 0) {
+    // The last iteration's time includes the write, so that one iteration at a time (the bench's
+    // way) is timed whole.
+    const auto start = Clock::now();
+    write_refined(positions);
+    if (!base_) refinement_->timings().total_ms += milliseconds_since(start);
+  }
+  return iterations;
+}
+
+int Deformer::refine_unwritten(const Eigen::MatrixXd& positions, int max_iterations) {
   if (positions.rows() != rest_.vertex_count() || positions.cols() != 3) {
     throw std::invalid_argument("refine: positions must be the " + std::to_string(rest_.vertex_count()) + "×3 result of deform()");
   }
-  if (base_) {
-    const int iterations = base_->refine(base_positions_, max_iterations);
-    if (iterations > 0) rebuild_from_base(positions);
-    return iterations;
-  }
+  if (base_) return base_->refine(base_positions_, max_iterations);
   if (!refinement_) prepare_refinement();
   if (refinement_pending_) {
     const trace::Scope traced("refinement start", "refinement");
@@ -566,15 +574,21 @@ int Deformer::refine(Eigen::MatrixXd& positions, int max_iterations) {
     refinement_->timings().total_ms = milliseconds_since(start);
     ++iterations;
   }
-  if (iterations > 0) {
-    // The last iteration's time includes the write, so that one iteration at a time (the editor's
-    // way) is timed whole.
-    const trace::Scope traced("refinement write-back", "refinement");
-    const auto start = Clock::now();
-    update_arena_->arena.execute([&] { refinement_->write(positions); });
-    refinement_->timings().total_ms += milliseconds_since(start);
-  }
   return iterations;
+}
+
+void Deformer::write_refined(Eigen::MatrixXd& positions) {
+  if (positions.rows() != rest_.vertex_count() || positions.cols() != 3) {
+    throw std::invalid_argument("write_refined: positions must be the " + std::to_string(rest_.vertex_count()) + "×3 result of deform()");
+  }
+  const Deformer& solved = base_ ? *base_ : *this;
+  if (!solved.refinement_ || solved.refinement_pending_ || solved.refinement_->status().iterations == 0) return;  // none since deform()
+  if (base_) {
+    rebuild_from_base(positions);
+    return;
+  }
+  const trace::Scope traced("refinement write-back", "refinement");
+  update_arena_->arena.execute([&] { refinement_->write(positions); });
 }
 
 const RefinementStatus& Deformer::refinement_status() const {

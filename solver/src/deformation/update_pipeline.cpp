@@ -104,17 +104,23 @@ void UpdatePipeline::run() {
         deformer_.complete(positions_);
         completion = true;
       } else {
-        deformer_.refine(positions_, 1);
+        // Written only when shown: on a base the write rebuilds the fine mesh.
+        if (deformer_.refine_unwritten(positions_, 1) > 0) refined_unwritten_ = true;
         status = deformer_.refinement_status();
         converged = status.converged;
       }
-      const double elapsed = milliseconds_since(start);
-      const auto now = std::chrono::steady_clock::now();
+      if (update || completion) refined_unwritten_ = false;
       bool publish = true;
       if (!update && !completion && !converged && status.iterations < deformer_.refinement_options().max_iterations) {
         std::lock_guard lock(mutex_);
-        publish = now - last_publication_ >= publication_interval_;
+        publish = std::chrono::steady_clock::now() - last_publication_ >= publication_interval_;
       }
+      if (publish && refined_unwritten_) {
+        deformer_.write_refined(positions_);
+        refined_unwritten_ = false;
+      }
+      const double elapsed = milliseconds_since(start);
+      const auto now = std::chrono::steady_clock::now();
       if (publish) {
         const trace::Scope traced("publish", "pipeline");
         publish_(Result{positions_, request, elapsed, status, !whole, completion});
