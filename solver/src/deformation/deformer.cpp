@@ -556,7 +556,7 @@ int Deformer::refine_unwritten(const Eigen::MatrixXd& positions, int max_iterati
   if (positions.rows() != rest_.vertex_count() || positions.cols() != 3) {
     throw std::invalid_argument("refine: positions must be the " + std::to_string(rest_.vertex_count()) + "×3 result of deform()");
   }
-  if (base_) return base_->refine(base_positions_, max_iterations);
+  if (base_) return base_->refine_unwritten(base_positions_, max_iterations);
   if (!refinement_) prepare_refinement();
   if (refinement_pending_) {
     const trace::Scope traced("refinement start", "refinement");
@@ -584,6 +584,7 @@ void Deformer::write_refined(Eigen::MatrixXd& positions) {
   const Deformer& solved = base_ ? *base_ : *this;
   if (!solved.refinement_ || solved.refinement_pending_ || solved.refinement_->status().iterations == 0) return;  // none since deform()
   if (base_) {
+    base_->write_refined(base_positions_);
     rebuild_from_base(positions);
     return;
   }
