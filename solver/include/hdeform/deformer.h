@@ -248,6 +248,8 @@ class Deformer {
   void prepare_update_triangles();
   void prepare_refinement();
   void begin_refinement(const Eigen::MatrixXd& positions);
+  // Throws std::invalid_argument, naming `caller`, unless `positions` has the mesh's n×3 shape.
+  void expect_result_rows(const Eigen::MatrixXd& positions, const char* caller) const;
 
   std::shared_ptr<const Mesh> shared_rest_;
   const Mesh& rest_;  // *shared_rest_
