@@ -9,6 +9,12 @@
 #include "hdeform/trace.h"
 
 namespace hdeform::engine {
+namespace {
+// How far ahead, in incidences (about 16 vertices), write_vertex asks for the face normals it will
+// sum. On a scan they lie far apart in memory, and without the prefetch the vertex pass waited on
+// them: at 3.3M triangles 27–35 ms of a 37 ms whole write, 15 ms with it (2 threads).
+constexpr std::size_t kIncidencesAhead = 96;
+}  // namespace
 
 GeometryExchange::GeometryExchange(std::size_t vertex_count) : vertex_count_(vertex_count) {
   for (auto& slot : slots_) slot.position_normal.assign(6 * vertex_count, 0.0f);
@@ -39,7 +45,8 @@ VertexNormals::VertexNormals(std::shared_ptr<const Eigen::MatrixXi> shared_trian
     for (int k = 0; k < 3; ++k) ++triangle_start_[static_cast<std::size_t>(triangles(t, k)) + 1];
   }
   for (std::size_t v = 0; v + 1 < triangle_start_.size(); ++v) triangle_start_[v + 1] += triangle_start_[v];
-  incident_.resize(static_cast<std::size_t>(triangle_start_.back()));
+  // Past the end, the prefetch's look-ahead (triangle 0: any valid one).
+  incident_.assign(static_cast<std::size_t>(triangle_start_.back()) + kIncidencesAhead, 0);
   std::vector<int> fill(triangle_start_.begin(), triangle_start_.end() - 1);
   for (Eigen::Index t = 0; t < triangles.rows(); ++t) {
     for (int k = 0; k < 3; ++k) incident_[static_cast<std::size_t>(fill[static_cast<std::size_t>(triangles(t, k))]++)] = static_cast<int>(t);
@@ -49,7 +56,9 @@ VertexNormals::VertexNormals(std::shared_ptr<const Eigen::MatrixXi> shared_trian
 void VertexNormals::write_vertex(const Eigen::MatrixXd& positions, Eigen::Index v, float* out) const {
   Eigen::Vector3d normal = Eigen::Vector3d::Zero();
   for (int k = triangle_start_[static_cast<std::size_t>(v)]; k < triangle_start_[static_cast<std::size_t>(v) + 1]; ++k) {
-    normal += face_normals_[static_cast<std::size_t>(incident_[static_cast<std::size_t>(k)])];
+    const auto incidence = static_cast<std::size_t>(k);
+    __builtin_prefetch(face_normals_.data() + incident_[incidence + kIncidencesAhead]);
+    normal += face_normals_[static_cast<std::size_t>(incident_[incidence])];
   }
   const double length = normal.norm();
   if (length > 0.0) normal /= length;
