@@ -371,6 +371,56 @@ TEST_F(DocumentTest, ADragDuringASetUpNeedsAsManyHandlesAsThePreviousSelection) 
   EXPECT_GT(document->request_update(), 0u);
 }
 
+// The window is woken after each publication with the state already recorded (so a frame can
+// tell the final shape), and once more when a finished refinement's digest is there: the first
+// wake after it already finds the refinement finished, before its digest.
+TEST_F(DocumentTest, TheWindowWakesWithThePublicationsStateAndAgainWithItsDigest) {
+  struct Wake {
+    int publications;
+    std::uint64_t published;
+    cli::Document::RefinementView view;
+  };
+  std::mutex mutex;
+  std::vector<Wake> wakes;
+  std::vector<std::uint64_t> requests;  // of each publication, in order
+  document->set_publish([&](const Eigen::MatrixXd&, std::uint64_t request, cli::Document::Answer) {
+    const std::lock_guard lock(mutex);
+    requests.push_back(request);
+  });
+  document->set_wake([&] {
+    const std::lock_guard lock(mutex);
+    wakes.push_back({static_cast<int>(requests.size()), document->last_published_request(), document->refinement()});
+  });
+  document->paint(shape.demo_constraints.fixed, cli::Layer::Fixed, false);
+  document->paint(shape.demo_constraints.handles[0], cli::Layer::Handle, false);
+  document->set_refine(true);
+  document->set_pose(0, Eigen::Vector3d::UnitX(), 0.0, 1.0, Eigen::Vector3d(0.0, -0.2, 0.0));
+  document->commit();
+  const Eigen::MatrixXd result = document->result();
+  for (int k = 0; k < 400; ++k) {
+    if (!document->refinement().digest.empty()) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  EXPECT_TRUE(document->settled());
+  const std::lock_guard lock(mutex);
+  ASSERT_FALSE(requests.empty());
+  ASSERT_GE(wakes.size(), 2u);
+  for (const Wake& wake : wakes) {
+    ASSERT_GT(wake.publications, 0) << "woken before anything was published";
+    EXPECT_EQ(wake.published, requests[static_cast<std::size_t>(wake.publications) - 1]) << "woken before the state was recorded";
+    EXPECT_EQ(wake.view.request, wake.published);
+  }
+  const Wake& finished = wakes[wakes.size() - 2];
+  const Wake& digested = wakes.back();
+  EXPECT_EQ(finished.publications, static_cast<int>(requests.size()));
+  EXPECT_TRUE(finished.view.finished);
+  EXPECT_TRUE(finished.view.digest.empty()) << "the finished shape waited for its digest";
+  EXPECT_TRUE(digested.view.finished);
+  EXPECT_EQ(digested.publications, finished.publications);
+  EXPECT_EQ(digested.view.digest, cli::positions_digest(result));
+  for (std::size_t k = 0; k + 2 < wakes.size(); ++k) EXPECT_FALSE(wakes[k].view.finished) << "wake " << k;
+}
+
 TEST_F(DocumentTest, AFailedSetUpKeepsThePreviousResultOnScreen) {
   document->paint(shape.demo_constraints.fixed, cli::Layer::Fixed, false);
   document->paint(shape.demo_constraints.handles[0], cli::Layer::Handle, false);

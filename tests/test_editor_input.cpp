@@ -228,8 +228,8 @@ Ray ray_through(const Eigen::Vector3f& point, const Eigen::Vector3f& eye = Eigen
   return Ray(eye, (point - eye).normalized());
 }
 
-// The proxy while the mesh moves, the whole mesh once it has rested for the rest time, and the
-// event loop told when that is due; never the proxy when it is off.
+// The proxy while the mesh moves, the whole mesh once it has rested for the rest time or come to
+// rest, and the event loop told when that is due; never the proxy when it is off.
 TEST(MotionDetail, TheProxyWhileMovingTheMeshOnceAtRest) {
   using namespace std::chrono_literals;
   const MotionDetail::Clock::time_point start{};
@@ -252,6 +252,12 @@ TEST(MotionDetail, TheProxyWhileMovingTheMeshOnceAtRest) {
   EXPECT_FALSE(detail.until_rest(start + 400ms));
   EXPECT_FALSE(detail.proxy(start + 410ms));
   detail.note_motion(start + 500ms);
+  EXPECT_TRUE(detail.proxy(start + 510ms));
+  detail.come_to_rest();  // the final shape is shown: whole at once, nothing due
+  EXPECT_FALSE(detail.proxy(start + 510ms));
+  EXPECT_FALSE(detail.until_rest(start + 510ms));
+  detail.note_motion(start + 600ms);
+  EXPECT_TRUE(detail.proxy(start + 610ms)) << "moving again after the rest";
   detail.enable(false);
   EXPECT_FALSE(detail.proxy(start + 510ms));
   EXPECT_FALSE(detail.until_rest(start + 510ms));

@@ -339,7 +339,9 @@ void EditorApp::step() {
     if (document_->refine()) {
       const auto view = document_->refinement();
       const auto& status = view.status;
-      if (view.finished && !refinement_settled_) {
+      // (Its digest comes a moment after it finishes: the announcement waits for it.)
+      const bool announced = view.finished && !view.digest.empty();
+      if (announced && !refinement_settled_) {
         print_json_line({{"event", "refined"},
                          {"iterations", status.iterations},
                          {"energy", status.energy},
@@ -348,7 +350,7 @@ void EditorApp::step() {
                          {"settled", status.settled},
                          {"positions_digest", view.digest}});
       }
-      refinement_settled_ = view.finished;
+      refinement_settled_ = announced;
     } else {
       refinement_settled_ = false;
     }

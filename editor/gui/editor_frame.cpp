@@ -20,8 +20,10 @@ void EditorApp::render(ImDrawData* draw_data) {
   if (mode_ == Mode::Transfer) {
     transfer_->prepare(slot.index, extent, kPanelWidth * ImGui::GetIO().DisplayFramebufferScale.x);
   } else {
-    moving = view_moving();
+    const ViewMotion motion = view_motion();
+    moving = motion == ViewMotion::Moving;
     if (moving) motion_detail_.note_motion(now);
+    if (motion == ViewMotion::CameToRest) motion_detail_.come_to_rest();
     camera_.covered_left = panel_fraction();  // the window may have been resized
     engine::RenderSettings frame_settings = settings_;
     frame_settings.proxy = motion_detail_.proxy(now);
@@ -74,7 +76,7 @@ void EditorApp::render(ImDrawData* draw_data) {
   }
 }
 
-bool EditorApp::view_moving() {
+EditorApp::ViewMotion EditorApp::view_motion() {
   // A handle dragged, or a brush stroke: each of its frames shows new paint, and a stroke painted
   // at one frame a second (the 3.3M Buddha on lavapipe) is a brush that lags its pointer. A lasso
   // changes only what is drawn over the kept scene.
@@ -83,7 +85,14 @@ bool EditorApp::view_moving() {
   const engine::GeometrySnapshot* newest = exchange_ ? exchange_->acquire() : nullptr;
   const bool new_solve = (document_ && document_->last_published_request() != shown_tag_) ||
                          (newest != nullptr && newest->version != renderer_->drawn_geometry_version());
-  return pointer_drag || camera_drag_ || ImGui::GetIO().MouseWheel != 0.0f || new_solve;
+  if (pointer_drag || camera_drag_ || ImGui::GetIO().MouseWheel != 0.0f) return ViewMotion::Moving;
+  // The last of a settling shape's solves is drawn whole at once: waiting out the rest would only
+  // keep the proxy on screen (a quarter of a second) after the shape stopped. (settled() reads the
+  // state recorded after the positions went out, so the snapshot the renderer takes next is that
+  // shape.)
+  const bool rest_due = new_solve || motion_detail_.until_rest(Clock::now()).has_value();
+  if (motion_detail_.enabled() && rest_due && document_ && document_->settled()) return ViewMotion::CameToRest;
+  return new_solve ? ViewMotion::Moving : ViewMotion::Still;
 }
 
 void EditorApp::take_profile() {

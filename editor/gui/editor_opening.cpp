@@ -109,8 +109,10 @@ void EditorApp::install(Loaded loaded_document, std::unique_ptr<engine::MeshBuff
     // A partial answer is sure only on the proxy's vertices: those alone are handed over.
     publisher_->publish(positions, request,
                         answer == Document::Answer::Partial ? engine::GeometryPublisher::Detail::Proxy : engine::GeometryPublisher::Detail::Whole);
-    glfwPostEmptyEvent();
   });
+  // The window wakes once the publication's state is recorded too: a frame then knows whether the
+  // shape it shows is the final one (view_motion).
+  loaded->document->set_wake([] { glfwPostEmptyEvent(); });
   document_ = std::move(loaded->document);
   scene_size_of_ = nullptr;  // another mesh, perhaps where the last one was in memory
   mesh_name_ = loaded->session.mesh;

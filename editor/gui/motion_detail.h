@@ -3,7 +3,8 @@
 // moves, on a CPU device, where a frame of every triangle takes longer than a drag can wait
 // (buddha-206k on lavapipe: 27 ms a frame, 73-79 ms from input to screen). Moving means a drag
 // input or a new solve shown within the last `rest`; once that long has passed without either,
-// the next frame draws the whole mesh again. No window needed: times are given.
+// or once the final shape is known to be shown (come_to_rest), the next frame draws the whole
+// mesh again. No window needed: times are given.
 #include <chrono>
 #include <optional>
 
@@ -25,6 +26,9 @@ class MotionDetail {
   // How long until the whole mesh is due (the event loop wakes for it); nullopt when no proxy
   // frame is waiting to be replaced.
   std::optional<Clock::duration> until_rest(Clock::time_point now) const;
+  // The mesh stopped: its final shape is on screen (nothing more will come, no input moves it).
+  // The next frame draws it whole at once, without waiting out the rest.
+  void come_to_rest() { last_motion_.reset(); }
   // Called after a frame: one drawn in full means nothing more is due.
   void note_drawn(bool proxy_drawn) {
     if (!proxy_drawn) last_motion_.reset();

@@ -46,6 +46,10 @@ class Document {
 
   // Sets where results go; only before the first poll() (no pipeline yet).
   void set_publish(Publish publish) { publish_ = std::move(publish); }
+  // Called on the pipeline's thread after each publication's state is recorded (settled(),
+  // refinement()), and again once a finished refinement's digest is: the window wakes to show
+  // the shape whole or announce it. Only before the first poll().
+  void set_wake(std::function<void()> wake) { wake_ = std::move(wake); }
 
   // The state as a session (lists rebuilt from the per-vertex labels).
   Session session() const;
@@ -176,7 +180,7 @@ class Document {
     RefinementStatus status;
     double iteration_ms = 0.0;
     std::uint64_t request = 0;
-    std::string digest;  // positions_digest of the positions, once finished
+    std::string digest;  // positions_digest of the positions: once finished, a moment after (empty until then)
     bool finished = false;  // converged, or stopped at the cap of iterations: nothing more comes
   };
   RefinementView refinement() const;
@@ -261,6 +265,7 @@ class Document {
 
   DeformerOptions options_;
   Publish publish_;
+  std::function<void()> wake_;
   std::unique_ptr<Deformer> deformer_;
   EditConstraints deformer_constraints_;
   const Mesh* deformer_rest_ = nullptr;
