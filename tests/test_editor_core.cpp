@@ -383,9 +383,11 @@ TEST_F(DocumentTest, TheWindowWakesWithThePublicationsStateAndAgainWithItsDigest
   std::mutex mutex;
   std::vector<Wake> wakes;
   std::vector<std::uint64_t> requests;  // of each publication, in order
-  document->set_publish([&](const Eigen::MatrixXd&, std::uint64_t request, cli::Document::Answer) {
+  std::vector<cli::Document::Answer> answers;
+  document->set_publish([&](const Eigen::MatrixXd&, std::uint64_t request, cli::Document::Answer answer) {
     const std::lock_guard lock(mutex);
     requests.push_back(request);
+    answers.push_back(answer);
   });
   document->set_wake([&] {
     const std::lock_guard lock(mutex);
@@ -419,6 +421,11 @@ TEST_F(DocumentTest, TheWindowWakesWithThePublicationsStateAndAgainWithItsDigest
   EXPECT_EQ(digested.publications, finished.publications);
   EXPECT_EQ(digested.view.digest, cli::positions_digest(result));
   for (std::size_t k = 0; k + 2 < wakes.size(); ++k) EXPECT_FALSE(wakes[k].view.finished) << "wake " << k;
+  // The paper's update, the iterations with more to come (settling), the last.
+  ASSERT_GE(answers.size(), 3u);
+  EXPECT_EQ(answers.front(), cli::Document::Answer::Whole);
+  EXPECT_EQ(answers.back(), cli::Document::Answer::Refined);
+  for (std::size_t k = 1; k + 1 < answers.size(); ++k) EXPECT_EQ(answers[k], cli::Document::Answer::Settling) << "publication " << k;
 }
 
 TEST_F(DocumentTest, AFailedSetUpKeepsThePreviousResultOnScreen) {

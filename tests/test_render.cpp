@@ -452,6 +452,62 @@ TEST(GeometryPublisher, AProxyPublicationWritesTheProxysVerticesAsAWholeOneWould
   EXPECT_EQ(exchange.acquire()->position_normal, reference);
 }
 
+// A settling shape goes out with every vertex's position and the proxy's normals alone: every
+// position and the proxy's vertices with the very bits a whole publication gives them, the
+// snapshot drawn as the proxy yet the whole shape to pick on; a drag's proxy publication is not,
+// a whole one after it is whole again, and without a proxy a settling publication is whole.
+TEST(GeometryPublisher, ASettlingPublicationWritesEveryPositionAndTheProxysNormals) {
+  const Mesh sphere = make_shape(ShapeKind::Sphere, 120).mesh;
+  const Eigen::MatrixXi proxy = engine::proxy_triangles(sphere.triangles, sphere.positions, 2000);
+  ASSERT_GT(proxy.rows(), 0);
+  Eigen::MatrixXd moved = sphere.positions;
+  for (Eigen::Index v = 0; v < moved.rows(); ++v) moved.row(v) += Eigen::RowVector3d(0.3 * moved(v, 2) * moved(v, 2), 0.1, -0.2);
+  const auto n = static_cast<std::size_t>(sphere.vertex_count());
+  engine::GeometryExchange whole_exchange(n), exchange(n);
+  engine::GeometryPublisher(whole_exchange, sphere.triangles).publish(moved);
+  const std::vector<float> reference = whole_exchange.acquire()->position_normal;
+
+  engine::GeometryPublisher publisher(exchange, sphere.triangles);
+  publisher.set_proxy(proxy);
+  for (std::uint64_t tag = 1; tag <= 3; ++tag) publisher.publish(sphere.positions, tag);  // every slot at rest
+  publisher.publish(moved, 4, engine::GeometryPublisher::Detail::ProxyNormals);
+  const engine::GeometrySnapshot* snapshot = exchange.acquire();
+  ASSERT_NE(snapshot, nullptr);
+  EXPECT_EQ(snapshot->tag, 4u);
+  ASSERT_NE(snapshot->only_vertices, nullptr);
+  EXPECT_EQ(*snapshot->only_vertices, *publisher.proxy_vertices());
+  EXPECT_TRUE(snapshot->every_position);
+  std::size_t positions_differing = 0, proxy_differing = 0, normals_left = 0;
+  for (std::size_t v = 0; v < n; ++v) {
+    for (std::size_t c = 0; c < 3; ++c) positions_differing += snapshot->position_normal[6 * v + c] != reference[6 * v + c];
+  }
+  for (const int v : *snapshot->only_vertices) {
+    for (std::size_t c = 0; c < 6; ++c) proxy_differing += snapshot->position_normal[6 * static_cast<std::size_t>(v) + c] != reference[6 * static_cast<std::size_t>(v) + c];
+  }
+  // The other vertices' normals are the rest shape's still: not worked out.
+  std::vector<bool> in_proxy(n, false);
+  for (const int v : *snapshot->only_vertices) in_proxy[static_cast<std::size_t>(v)] = true;
+  for (std::size_t v = 0; v < n; ++v) {
+    if (in_proxy[v]) continue;
+    normals_left += snapshot->position_normal[6 * v + 3] != reference[6 * v + 3];
+  }
+  EXPECT_EQ(positions_differing, 0u);
+  EXPECT_EQ(proxy_differing, 0u);
+  EXPECT_GT(normals_left, (n - snapshot->only_vertices->size()) / 2) << "the normals of every vertex were worked out";
+
+  publisher.publish(moved, 5, engine::GeometryPublisher::Detail::Proxy);
+  EXPECT_FALSE(exchange.acquire()->every_position) << "a drag's answer holds the proxy's positions alone";
+  publisher.publish(moved, 6);
+  EXPECT_EQ(exchange.acquire()->only_vertices, nullptr);
+  EXPECT_TRUE(exchange.acquire()->every_position);
+  EXPECT_EQ(exchange.acquire()->position_normal, reference);
+
+  publisher.set_proxy(Eigen::MatrixXi(0, 3));
+  publisher.publish(moved, 7, engine::GeometryPublisher::Detail::ProxyNormals);
+  EXPECT_EQ(exchange.acquire()->only_vertices, nullptr);
+  EXPECT_EQ(exchange.acquire()->position_normal, reference);
+}
+
 // Shared triangles publish what copied ones do, and the normals are the area-weighted ones,
 // summed here triangle by triangle (another order, so to float precision).
 TEST(GeometryPublisher, SharedTrianglesPublishAreaWeightedNormals) {

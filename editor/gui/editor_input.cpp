@@ -69,8 +69,9 @@ Eigen::ParametrizedLine<float, 3> EditorApp::cursor_ray(const ImVec2& cursor) co
 const engine::GeometrySnapshot* EditorApp::shown_snapshot() {
   const engine::GeometrySnapshot* shown = exchange_ ? exchange_->acquire() : nullptr;
   // A drag's answer holding the proxy's vertices alone is not the whole shape: nothing is, until
-  // the whole one follows (the pipeline publishes it once the input rests).
-  return shown != nullptr && shown->only_vertices ? nullptr : shown;
+  // the whole one follows (the pipeline publishes it once the input rests). A settling shape with
+  // the proxy's normals alone has every position: it is.
+  return shown != nullptr && shown->only_vertices && !shown->every_position ? nullptr : shown;
 }
 
 const engine::GeometrySnapshot* EditorApp::shown_geometry(ViewPicker::Need need) {

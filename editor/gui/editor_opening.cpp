@@ -106,9 +106,14 @@ void EditorApp::install(Loaded loaded_document, std::unique_ptr<engine::MeshBuff
   if (loaded->scene.view_classes.capacity() > view_classes_.capacity()) std::swap(view_classes_, loaded->scene.view_classes);
   if (loaded->scene.view_field.capacity() > view_field_.capacity()) std::swap(view_field_, loaded->scene.view_field);
   loaded->document->set_publish([this](const Eigen::MatrixXd& positions, std::uint64_t request, Document::Answer answer) {
-    // A partial answer is sure only on the proxy's vertices: those alone are handed over.
+    // A partial answer is sure only on the proxy's vertices: those alone are handed over. A
+    // settling shape is drawn as the proxy (a new solve is motion) until the next replaces it, so
+    // only the proxy's normals are worked out; every position goes over, to pick and paint on.
+    using Detail = engine::GeometryPublisher::Detail;
     publisher_->publish(positions, request,
-                        answer == Document::Answer::Partial ? engine::GeometryPublisher::Detail::Proxy : engine::GeometryPublisher::Detail::Whole);
+                        answer == Document::Answer::Partial    ? Detail::Proxy
+                        : answer == Document::Answer::Settling ? Detail::ProxyNormals
+                                                               : Detail::Whole);
   });
   // The window wakes once the publication's state is recorded too: a frame then knows whether the
   // shape it shows is the final one (view_motion).

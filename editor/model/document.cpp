@@ -501,14 +501,17 @@ void Document::install_build() {
   const std::uint64_t base = request_base_;
   pipeline_ = std::make_unique<UpdatePipeline>(*deformer_, [this, base](const UpdatePipeline::Result& result) {
     if (result.refinement.iterations == 0 && !result.completion) last_update_ms_ = result.update_ms;
+    const bool finished = result.refinement.converged || (result.refinement.iterations > 0 &&
+                                                          result.refinement.iterations >= deformer_->refinement_options().max_iterations);
     // The positions go out first: once the view below says a refinement has finished (settled()),
     // its positions are the ones published.
     if (publish_) {
-      publish_(result.positions, base + result.request,
-               result.partial ? Answer::Partial : result.refinement.iterations > 0 ? Answer::Refined : Answer::Whole);
+      const Answer answer = result.partial                      ? Answer::Partial
+                            : result.refinement.iterations == 0 ? Answer::Whole
+                            : finished                          ? Answer::Refined
+                                                                : Answer::Settling;
+      publish_(result.positions, base + result.request, answer);
     }
-    const bool finished = result.refinement.converged || (result.refinement.iterations > 0 &&
-                                                          result.refinement.iterations >= deformer_->refinement_options().max_iterations);
     {
       // The deformer's timings are its last update's or iteration's: this thread just ran it.
       std::lock_guard lock(refinement_mutex_);

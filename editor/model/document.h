@@ -28,8 +28,10 @@ enum class Layer { RegionOfInterest, Fixed, Handle };
 class Document {
  public:
   // What a publication holds: the paper's update of every vertex; of the partial vertices only
-  // (request_update(true): the others hold an earlier answer); or a refinement iteration.
-  enum class Answer { Whole, Partial, Refined };
+  // (request_update(true): the others hold an earlier answer); a refinement iteration with more to
+  // come (a settling shape, replaced within moments unless a new request replaces it first); or the
+  // refinement's last (converged, or at its cap).
+  enum class Answer { Whole, Partial, Settling, Refined };
   // Called on a worker thread with each finished update's positions, the number that
   // request_update() returned for it, and what they are.
   using Publish = std::function<void(const Eigen::MatrixXd& positions, std::uint64_t request, Answer answer)>;

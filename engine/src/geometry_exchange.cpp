@@ -85,6 +85,7 @@ void VertexNormals::write(const Eigen::MatrixXd& positions, GeometrySnapshot& sn
     for (Eigen::Index v = range.begin(); v != range.end(); ++v) write_vertex(positions, v, out);
   });
   snapshot.only_vertices.reset();
+  snapshot.every_position = true;
 }
 
 VertexNormals::Subset VertexNormals::subset(const Eigen::MatrixXi& triangles) const {
@@ -116,6 +117,18 @@ void VertexNormals::write(const Eigen::MatrixXd& positions, const Subset& subset
     for (std::size_t i = range.begin(); i != range.end(); ++i) write_vertex(positions, vertices[i], out);
   });
   snapshot.only_vertices = subset.vertices;
+  snapshot.every_position = false;
+}
+
+void VertexNormals::write_positions(const Eigen::MatrixXd& positions, const Subset& normals_of, GeometrySnapshot& snapshot) {
+  float* out = snapshot.position_normal.data();
+  tbb::parallel_for(tbb::blocked_range<Eigen::Index>(0, positions.rows(), 8192), [&](const auto& range) {
+    for (Eigen::Index v = range.begin(); v != range.end(); ++v) {
+      for (int c = 0; c < 3; ++c) out[6 * v + c] = static_cast<float>(positions(v, c));
+    }
+  });
+  write(positions, normals_of, snapshot);
+  snapshot.every_position = true;
 }
 
 GeometryPublisher::GeometryPublisher(GeometryExchange& exchange, const Eigen::MatrixXi& triangles)
@@ -142,6 +155,9 @@ void GeometryPublisher::publish(const Eigen::MatrixXd& positions, std::uint64_t 
   if (detail == Detail::Proxy && proxy_) {
     const trace::Scope traced("positions and normals, the proxy's vertices", "publish");
     normals_.write(positions, *proxy_, back);
+  } else if (detail == Detail::ProxyNormals && proxy_) {
+    const trace::Scope traced("positions of every vertex, the proxy's normals", "publish");
+    normals_.write_positions(positions, *proxy_, back);
   } else {
     const trace::Scope traced("positions and normals, every vertex", "publish");
     normals_.write(positions, back);

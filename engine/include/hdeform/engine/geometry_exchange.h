@@ -20,9 +20,13 @@ struct GeometrySnapshot {
   std::vector<float> position_normal;
   std::uint64_t version = 0;  ///< increases with every publication
   std::uint64_t tag = 0;      ///< the publisher's label (the editor: the request it answers)
-  /// Set when this publication wrote only these vertices (a proxy's, ascending): the others hold
-  /// an older one's geometry, so the snapshot is drawn only as the proxy. Null: every vertex.
+  /// Set when this publication wrote the normals of these vertices only (a proxy's, ascending):
+  /// the others hold an older one's, so the snapshot is drawn only as the proxy. Null: every vertex.
   std::shared_ptr<const std::vector<int>> only_vertices;
+  /// With only_vertices set, whether every vertex's position was written all the same (a settling
+  /// shape): then the snapshot is the whole shape for picking and painting, though drawn as the
+  /// proxy. False: the other vertices' positions are an older publication's too.
+  bool every_position = true;
 };
 
 /// Hands positions and normals from one writer thread (the solver) to one reader thread (the
@@ -76,6 +80,10 @@ class VertexNormals {
   /// Writes the subset's vertices alone, each with the very bits write() gives it, and marks the
   /// snapshot as holding them only. Allocation-free.
   void write(const Eigen::MatrixXd& positions, const Subset& subset, GeometrySnapshot& snapshot);
+  /// Writes every vertex's position and the subset's normals, each with the very bits write()
+  /// gives it: a snapshot drawn as the proxy but holding the whole shape (every_position).
+  /// Allocation-free.
+  void write_positions(const Eigen::MatrixXd& positions, const Subset& normals_of, GeometrySnapshot& snapshot);
 
  private:
   void write_vertex(const Eigen::MatrixXd& positions, Eigen::Index v, float* out) const;
@@ -97,13 +105,17 @@ class GeometryPublisher {
   GeometryPublisher(GeometryExchange& exchange, std::shared_ptr<const Eigen::MatrixXi> triangles);
 
   /// Every vertex, or only the proxy's (set_proxy) for frames that will draw the proxy anyway: a
-  /// drag on a large mesh then publishes a few thousand vertices instead of millions.
-  enum class Detail { Whole, Proxy };
+  /// drag on a large mesh then publishes a few thousand vertices instead of millions. ProxyNormals:
+  /// every vertex's position but only the proxy's normals, for a shape that the frames draw as the
+  /// proxy (it is replaced within moments) but that may be picked on: a settling one, whose
+  /// normals at 3.3 million triangles would take most of its publication.
+  enum class Detail { Whole, Proxy, ProxyNormals };
   /// The proxy's triangles (proxy_mesh.h); empty: none, and Proxy publishes the whole mesh.
   void set_proxy(const Eigen::MatrixXi& proxy_triangles);
   /// The vertices a Proxy publication writes (ascending, distinct); null without a proxy.
   std::shared_ptr<const std::vector<int>> proxy_vertices() const;
   /// Fills the back buffer with `positions` and their normals, labels it `tag`, and publishes it.
+  /// Without a proxy every detail is Whole.
   void publish(const Eigen::MatrixXd& positions, std::uint64_t tag = 0, Detail detail = Detail::Whole);
 
  private:
