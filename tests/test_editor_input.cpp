@@ -228,8 +228,8 @@ Ray ray_through(const Eigen::Vector3f& point, const Eigen::Vector3f& eye = Eigen
   return Ray(eye, (point - eye).normalized());
 }
 
-// The proxy while the mesh moves, the whole mesh once it has rested for the rest time or come to
-// rest, and the event loop told when that is due; never the proxy when it is off.
+// The proxy while the mesh moves, the whole mesh once it has rested for the rest time, and the
+// event loop told when that is due; never the proxy when it is off.
 TEST(MotionDetail, TheProxyWhileMovingTheMeshOnceAtRest) {
   using namespace std::chrono_literals;
   const MotionDetail::Clock::time_point start{};
@@ -252,15 +252,52 @@ TEST(MotionDetail, TheProxyWhileMovingTheMeshOnceAtRest) {
   EXPECT_FALSE(detail.until_rest(start + 400ms));
   EXPECT_FALSE(detail.proxy(start + 410ms));
   detail.note_motion(start + 500ms);
-  EXPECT_TRUE(detail.proxy(start + 510ms));
-  detail.come_to_rest();  // the final shape is shown: whole at once, nothing due
-  EXPECT_FALSE(detail.proxy(start + 510ms));
-  EXPECT_FALSE(detail.until_rest(start + 510ms));
-  detail.note_motion(start + 600ms);
-  EXPECT_TRUE(detail.proxy(start + 610ms)) << "moving again after the rest";
   detail.enable(false);
   EXPECT_FALSE(detail.proxy(start + 510ms));
   EXPECT_FALSE(detail.until_rest(start + 510ms));
+}
+
+// A frame's motion: the user's always waits out the rest, whatever the solver says; the solver's
+// final shape ends it at once, shown as a new solve or in a frame while the rest waits out solves.
+TEST(MotionDetail, TheSolversFinalShapeEndsTheRestTheUsersMotionWaitsItOut) {
+  using namespace std::chrono_literals;
+  using Motion = MotionDetail::Motion;
+  const MotionDetail::Clock::time_point start{};
+  MotionDetail detail(250ms);
+  detail.enable(true);
+  int asked = 0;
+  const auto settled = [&] { ++asked; return true; };
+  const auto unsettled = [&] { ++asked; return false; };
+
+  EXPECT_TRUE(detail.note_frame(start, Motion::Input, settled)) << "a turn of the view";
+  EXPECT_EQ(asked, 0) << "the user's motion does not ask";
+  EXPECT_FALSE(detail.note_frame(start + 10ms, Motion::None, settled));
+  EXPECT_EQ(asked, 0) << "nor does the rest after it";
+  EXPECT_TRUE(detail.proxy(start + 10ms)) << "the rest after the user's motion is waited out";
+  EXPECT_FALSE(detail.proxy(start + 250ms));
+
+  EXPECT_TRUE(detail.note_frame(start + 300ms, Motion::Solve, unsettled)) << "a settling shape";
+  EXPECT_TRUE(detail.proxy(start + 310ms));
+  EXPECT_FALSE(detail.note_frame(start + 320ms, Motion::None, unsettled));
+  EXPECT_TRUE(detail.proxy(start + 330ms));
+  EXPECT_FALSE(detail.note_frame(start + 340ms, Motion::None, settled)) << "the final shape was recorded after it was shown";
+  EXPECT_FALSE(detail.proxy(start + 340ms)) << "whole at once";
+  EXPECT_FALSE(detail.until_rest(start + 340ms)) << "nothing due";
+
+  EXPECT_TRUE(detail.note_frame(start + 400ms, Motion::Solve, unsettled));
+  EXPECT_FALSE(detail.note_frame(start + 410ms, Motion::Solve, settled)) << "the final shape, a new solve";
+  EXPECT_FALSE(detail.proxy(start + 410ms));
+
+  EXPECT_TRUE(detail.note_frame(start + 500ms, Motion::Solve, unsettled));
+  EXPECT_TRUE(detail.note_frame(start + 510ms, Motion::Input, settled)) << "the user turns the view meanwhile";
+  const int before = asked;
+  EXPECT_FALSE(detail.note_frame(start + 520ms, Motion::None, settled));
+  EXPECT_EQ(asked, before);
+  EXPECT_TRUE(detail.proxy(start + 520ms)) << "the user's motion was the last";
+
+  detail.enable(false);
+  EXPECT_TRUE(detail.note_frame(start + 600ms, Motion::Solve, settled)) << "off: a solve is motion, never the proxy";
+  EXPECT_FALSE(detail.proxy(start + 610ms));
 }
 
 // A scan's still picture in slices of at most the given triangles, each slice in turn while the

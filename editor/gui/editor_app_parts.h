@@ -519,10 +519,9 @@ class EditorApp {
   void finish_proxy();
   // Builds the picker ahead of the first pick where the cores have nothing else to do.
   void prepare_picking();
-  // Whether the geometry moves this frame (a handle dragged, the view turned, a new solve), or came
-  // to rest: nothing moves it and the final shape of the poses is published (Document::settled).
-  enum class ViewMotion { Still, Moving, CameToRest };
-  ViewMotion view_motion();
+  // What moves the geometry this frame: the user (a handle dragged, the view turned), a new solve,
+  // or nothing.
+  MotionDetail::Motion view_motion();
   Clock::time_point build_started_{};
 
   engine::Camera camera_;

@@ -20,10 +20,7 @@ void EditorApp::render(ImDrawData* draw_data) {
   if (mode_ == Mode::Transfer) {
     transfer_->prepare(slot.index, extent, kPanelWidth * ImGui::GetIO().DisplayFramebufferScale.x);
   } else {
-    const ViewMotion motion = view_motion();
-    moving = motion == ViewMotion::Moving;
-    if (moving) motion_detail_.note_motion(now);
-    if (motion == ViewMotion::CameToRest) motion_detail_.come_to_rest();
+    moving = motion_detail_.note_frame(now, view_motion(), [&] { return document_ && document_->settled(); });
     camera_.covered_left = panel_fraction();  // the window may have been resized
     engine::RenderSettings frame_settings = settings_;
     frame_settings.proxy = motion_detail_.proxy(now);
@@ -76,7 +73,7 @@ void EditorApp::render(ImDrawData* draw_data) {
   }
 }
 
-EditorApp::ViewMotion EditorApp::view_motion() {
+MotionDetail::Motion EditorApp::view_motion() {
   // A handle dragged, or a brush stroke: each of its frames shows new paint, and a stroke painted
   // at one frame a second (the 3.3M Buddha on lavapipe) is a brush that lags its pointer. A lasso
   // changes only what is drawn over the kept scene.
@@ -85,14 +82,11 @@ EditorApp::ViewMotion EditorApp::view_motion() {
   const engine::GeometrySnapshot* newest = exchange_ ? exchange_->acquire() : nullptr;
   const bool new_solve = (document_ && document_->last_published_request() != shown_tag_) ||
                          (newest != nullptr && newest->version != renderer_->drawn_geometry_version());
-  if (pointer_drag || camera_drag_ || ImGui::GetIO().MouseWheel != 0.0f) return ViewMotion::Moving;
-  // The last of a settling shape's solves is drawn whole at once: waiting out the rest would only
-  // keep the proxy on screen (a quarter of a second) after the shape stopped. (settled() reads the
+  if (pointer_drag || camera_drag_ || ImGui::GetIO().MouseWheel != 0.0f) return MotionDetail::Motion::Input;
+  // (A settled shape's solve is drawn whole at once, MotionDetail::note_frame: settled() reads the
   // state recorded after the positions went out, so the snapshot the renderer takes next is that
   // shape.)
-  const bool rest_due = new_solve || motion_detail_.until_rest(Clock::now()).has_value();
-  if (motion_detail_.enabled() && rest_due && document_ && document_->settled()) return ViewMotion::CameToRest;
-  return new_solve ? ViewMotion::Moving : ViewMotion::Still;
+  return new_solve ? MotionDetail::Motion::Solve : MotionDetail::Motion::None;
 }
 
 void EditorApp::take_profile() {
