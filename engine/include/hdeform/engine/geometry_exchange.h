@@ -20,8 +20,9 @@ struct GeometrySnapshot {
   std::vector<float> position_normal;
   std::uint64_t version = 0;  ///< increases with every publication
   std::uint64_t tag = 0;      ///< the publisher's label (the editor: the request it answers)
-  /// Set when this publication wrote the normals of these vertices only (a proxy's, ascending):
-  /// the others hold an older one's, so the snapshot is drawn only as the proxy. Null: every vertex.
+  /// Set when this publication wrote these vertices' normals only (a proxy's, ascending), and
+  /// unless every_position their positions only too: the others hold an older one's, so the
+  /// snapshot is drawn only as the proxy. Null: every vertex.
   std::shared_ptr<const std::vector<int>> only_vertices;
   /// With only_vertices set, whether every vertex's position was written all the same (a settling
   /// shape): then the snapshot is the whole shape for picking and painting, though drawn as the
