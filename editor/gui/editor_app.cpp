@@ -335,13 +335,15 @@ void EditorApp::step() {
       announce_solver_state();
     }
     // A refinement that settles is announced once: scripts and tests wait for it before they
-    // take a picture of the result (until then each iteration replaces the last on screen).
+    // take a picture of the result (until then each iteration replaces the last on screen). Once
+    // per request: the next one's may settle before a step sees it unsettled (a reset settles at
+    // its first publication, right after the paper's update).
     if (document_->refine()) {
       const auto view = document_->refinement();
       const auto& status = view.status;
       // (Its digest comes a moment after it finishes: the announcement waits for it.)
-      const bool announced = view.finished && !view.digest.empty();
-      if (announced && !refinement_settled_) {
+      if (view.finished && !view.digest.empty() && view.request != announced_refinement_) {
+        announced_refinement_ = view.request;
         print_json_line({{"event", "refined"},
                          {"iterations", status.iterations},
                          {"energy", status.energy},
@@ -350,9 +352,6 @@ void EditorApp::step() {
                          {"settled", status.settled},
                          {"positions_digest", view.digest}});
       }
-      refinement_settled_ = announced;
-    } else {
-      refinement_settled_ = false;
     }
     finish_pending_save();
     if (document_->solver_state() == Document::SolverState::Building && build_started_ == Clock::time_point{}) build_started_ = Clock::now();

@@ -511,7 +511,7 @@ class EditorApp {
   std::size_t slice_triangles_ = 0;  // a picture of more triangles is drawn in slices (scene_slices.h); 0: whole
   int scene_ramp_ = 0;               // the ramp of the picture being drawn in slices
   bool panel_behind_picture_ = false;  // the last frame completed a picture in slices after its panel was made
-  bool refinement_settled_ = false;  // the latest publication's refinement converged (announced)
+  std::uint64_t announced_refinement_ = 0;  // the request whose settled refinement was announced last
   Eigen::Index proxy_triangle_count_ = 0;
   // Starts simplifying a newly opened mesh, on a CPU device with --proxy auto; installs the proxy
   // when it is done (finish_proxy, each frame).
