@@ -324,10 +324,13 @@ void EditorApp::step() {
     const auto before = document_->solver_state();
     document_->hold_set_up(dragging_ && is_paint_tool(tools_.tool));
     document_->poll();
-    // On a CPU device (latch pacing) iterations would take the cores the frame needs: they
-    // wait until the input rests (buddha-206k on lavapipe: 17.7 fps and 99 ms input to screen
-    // with iterations between the drag's updates, against 29.7 fps and 52 ms without).
-    document_->set_refinement_delay(std::chrono::milliseconds(latch_solves_ ? kRefineAfterRestMs : 0));
+    // On a CPU device (latch pacing) iterations would take the cores a drag's frames need: they
+    // wait until its input rests (buddha-206k on lavapipe: 17.7 fps and 99 ms input to screen
+    // with iterations between the drag's updates, against 29.7 fps and 52 ms without). Once the
+    // handle (or a value in the panel, dragged or typed) is let go nothing more comes from it, and
+    // they start at once.
+    const bool input_held = handle_dragged() || ImGui::IsAnyItemActive();
+    document_->set_refinement_delay(std::chrono::milliseconds(latch_solves_ && input_held ? kRefineAfterRestMs : 0));
     // ... and each frame of a settling shape takes them from the iterations: a few per second.
     document_->set_refinement_publication_interval(std::chrono::milliseconds(latch_solves_ ? kRefinementFrameMs : 0));
     if (document_->solver_state() != before) {

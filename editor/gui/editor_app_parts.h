@@ -74,7 +74,7 @@ inline constexpr float kPanelWidth = 330.0f;
 inline constexpr double kRecoveryInterval = 3.0;  // seconds between periodic recovery writes
 inline constexpr double kProgressDelay = 0.5;     // show progress for work longer than this
 inline constexpr double kMaxLatchMs = 20.0;       // the longest a frame waits for a solve ("latch" pacing)
-inline constexpr int kRefineAfterRestMs = 150;     // "latch": refinement once the input has rested this long
+inline constexpr int kRefineAfterRestMs = 150;     // "latch": while a handle or value is held, refinement once its input has rested this long
 inline constexpr int kRefinementFrameMs = 100;     // "latch": a settling shape is drawn at most this often
 
 inline std::string lowercase_first(std::string text) {
@@ -379,6 +379,8 @@ class EditorApp {
   // Posts the current poses, answering the inputs that led to them (their times, for latency).
   std::uint64_t post_request(std::span<const Clock::time_point> events);
   std::uint64_t post_request(Clock::time_point event_time) { return post_request(std::span(&event_time, 1)); }
+  // A handle is being dragged (by the pointer, or the benchmark's synthetic drag).
+  bool handle_dragged() const { return (dragging_ && !is_paint_tool(tools_.tool)) || benchmark_ != nullptr; }
 
   void post_recovery();
   // Saves the result for the current poses to `path` (and its session beside it) once the shape

@@ -361,8 +361,7 @@ std::uint64_t EditorApp::post_request(std::span<const Clock::time_point> events)
   if (!document_) return 0;
   // While a handle is dragged the frames draw the proxy: the answer need hold only its vertices
   // (the pipeline publishes the whole shape once the input rests).
-  const bool handle_dragged = (dragging_ && !is_paint_tool(tools_.tool)) || benchmark_ != nullptr;
-  const std::uint64_t request = document_->request_update(motion_detail_.enabled() && handle_dragged);
+  const std::uint64_t request = document_->request_update(motion_detail_.enabled() && handle_dragged());
   if (request == 0) return 0;
   statistics_.note_request(request, events);
   return request;
