@@ -558,7 +558,7 @@ int Deformer::refine(Eigen::MatrixXd& positions, int max_iterations) {
 }
 
 int Deformer::refine_unwritten(const Eigen::MatrixXd& positions, int max_iterations) {
-  expect_result_rows(positions, "refine");
+  expect_result_rows(positions, "refine_unwritten");
   if (base_) return base_->refine_unwritten(base_positions_, max_iterations);
   if (!refinement_) prepare_refinement();
   if (refinement_pending_) {
