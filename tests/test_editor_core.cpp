@@ -5,6 +5,7 @@
 #include <cmath>
 #include <fstream>
 #include <mutex>
+#include <new>
 #include <random>
 #include <set>
 #include <thread>
@@ -426,6 +427,65 @@ TEST_F(DocumentTest, TheWindowWakesWithThePublicationsStateAndAgainWithItsDigest
   EXPECT_EQ(answers.front(), cli::Document::Answer::Whole);
   EXPECT_EQ(answers.back(), cli::Document::Answer::Refined);
   for (std::size_t k = 1; k + 1 < answers.size(); ++k) EXPECT_EQ(answers[k], cli::Document::Answer::Settling) << "publication " << k;
+}
+
+// A refinement that fails (here out of memory as its first iteration is handed over) ends the
+// wait for these poses: settled() says so, the window is woken to show why, and result() throws
+// the reason instead of giving a shape that is not the session's (a save would wait for ever, or
+// write it). New poses, or refinement turned off, are answered as usual.
+TEST_F(DocumentTest, AFailedRefinementSettlesWithItsReasonAndNewPosesSolveAgain) {
+  std::atomic<bool> fail_next_iteration{true};
+  std::mutex mutex;
+  std::vector<std::string> woken_with;  // the failure each wake found
+  document->set_publish([&](const Eigen::MatrixXd&, std::uint64_t, cli::Document::Answer answer) {
+    if (answer == cli::Document::Answer::Settling && fail_next_iteration.exchange(false)) throw std::bad_alloc();
+  });
+  document->set_wake([&] {
+    const std::lock_guard lock(mutex);
+    woken_with.push_back(document->answer_failure().why);
+  });
+  document->paint(shape.demo_constraints.fixed, cli::Layer::Fixed, false);
+  document->paint(shape.demo_constraints.handles[0], cli::Layer::Handle, false);
+  document->set_refine(true);
+  document->set_pose(0, Eigen::Vector3d::UnitX(), 0.0, 1.0, Eigen::Vector3d(0.0, -0.2, 0.0));
+  document->commit();
+  try {
+    (void)document->result();
+    ADD_FAILURE() << "result() gave a shape the refinement never reached";
+  } catch (const SolveError& error) {
+    EXPECT_NE(std::string(error.what()).find("The refinement stopped: out of memory"), std::string::npos) << error.what();
+  }
+  EXPECT_FALSE(fail_next_iteration.load()) << "no iteration was handed over";
+  EXPECT_TRUE(document->settled());
+  const cli::Document::AnswerFailure failure = document->answer_failure();
+  EXPECT_EQ(failure.request, document->last_published_request());  // the paper's update, published before
+  EXPECT_FALSE(document->refinement().finished);
+  {
+    const std::lock_guard lock(mutex);
+    ASSERT_FALSE(woken_with.empty());
+    EXPECT_EQ(woken_with.back(), failure.why) << "the window was not woken with the failure";
+  }
+  // New poses: refined to the end, and no failure left.
+  document->set_pose(0, Eigen::Vector3d::UnitX(), 0.0, 1.0, Eigen::Vector3d(0.0, -0.25, 0.0));
+  document->commit();
+  EXPECT_NO_THROW((void)document->result());
+  EXPECT_TRUE(document->answer_failure().why.empty());
+  EXPECT_TRUE(document->settled());
+  EXPECT_TRUE(document->refinement().finished);
+  // The same poses failing again, then refinement off: the paper's update alone, no failure.
+  document->set_pose(0, Eigen::Vector3d::UnitX(), 0.0, 1.0, Eigen::Vector3d(0.0, -0.2, 0.0));
+  fail_next_iteration = true;
+  document->commit();
+  EXPECT_THROW((void)document->result(), SolveError);
+  document->set_refine(false);
+  document->commit();
+  const Eigen::MatrixXd unrefined = document->result();
+  EXPECT_TRUE(document->answer_failure().why.empty());
+  Deformer paper(shape.mesh, shape.demo_constraints);
+  Eigen::MatrixXd expected;
+  const HandleTransform pose = document->pose(0);
+  paper.deform(std::span(&pose, 1), expected);
+  EXPECT_LT((unrefined - expected).cwiseAbs().maxCoeff(), 1e-12);
 }
 
 TEST_F(DocumentTest, AFailedSetUpKeepsThePreviousResultOnScreen) {

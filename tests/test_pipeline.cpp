@@ -3,6 +3,7 @@
 #include <chrono>
 #include <memory>
 #include <mutex>
+#include <stdexcept>
 #include <string>
 #include <thread>
 
@@ -49,15 +50,68 @@ TEST(UpdatePipeline, AFailedUpdateIsReportedAndKeepsThePreviousResult) {
   auto shape = make_shape(ShapeKind::Sphere, 16);
   Deformer deformer(shape.mesh, shape.demo_constraints);
   std::atomic<int> publications{0};
-  UpdatePipeline pipeline(deformer, [&](const UpdatePipeline::Result&) { ++publications; });
+  std::vector<UpdatePipeline::Failure> failures;  // the pipeline's thread writes it before wait_idle() returns
+  UpdatePipeline pipeline(deformer, [&](const UpdatePipeline::Result&) { ++publications; },
+                          [&](const UpdatePipeline::Failure& failure) { failures.push_back(failure); });
   pipeline.submit(std::span(&shape.demo_transform, 1));
   pipeline.wait_idle();
   EXPECT_EQ(publications.load(), 1);
+  EXPECT_TRUE(failures.empty());
   const std::vector<HandleTransform> wrong_count(2);
-  pipeline.submit(wrong_count);  // two transforms for one handle: the update throws
+  const std::uint64_t failed = pipeline.submit(wrong_count);  // two transforms for one handle: the update throws
   pipeline.wait_idle();
   EXPECT_NE(pipeline.last_error(), nullptr);
   EXPECT_EQ(publications.load(), 1);
+  ASSERT_EQ(failures.size(), 1u);
+  EXPECT_EQ(failures[0].request, failed);
+  EXPECT_FALSE(failures[0].refining);
+  EXPECT_EQ(failures[0].error, pipeline.last_error());
+  // The next request is answered as usual.
+  pipeline.submit(std::span(&shape.demo_transform, 1));
+  pipeline.wait_idle();
+  EXPECT_EQ(publications.load(), 2);
+  EXPECT_EQ(failures.size(), 1u);
+}
+
+// A refinement that throws (here its second iteration's publication) ends the work for its
+// request, says so, and leaves the pipeline idle instead of refining for ever; the next request is
+// refined as usual.
+TEST(UpdatePipeline, AFailedRefinementEndsItsRequestAndTheNextIsRefinedAsUsual) {
+  auto shape = make_shape(ShapeKind::Cylinder, 16);
+  DeformerOptions options;
+  options.prepare_refinement = true;
+  Deformer deformer(shape.mesh, shape.demo_constraints, options);
+  std::atomic<bool> fail_second_iteration{true};
+  std::vector<int> published;  // iterations of each publication
+  std::vector<bool> converged;
+  std::vector<UpdatePipeline::Failure> failures;
+  UpdatePipeline pipeline(
+      deformer,
+      [&](const UpdatePipeline::Result& result) {
+        if (result.refinement.iterations == 2 && fail_second_iteration.exchange(false)) throw std::runtime_error("no room for it");
+        published.push_back(result.refinement.iterations);
+        converged.push_back(result.refinement.converged);
+      },
+      [&](const UpdatePipeline::Failure& failure) { failures.push_back(failure); });
+  const HandleTransform drag = HandleTransform::from_affine((Eigen::Matrix<double, 3, 4>() << 1, 0, 0, 0.4, 0, 1, 0, 0, 0, 0, 1, -0.1).finished());
+  pipeline.set_refinement(true);
+  const std::uint64_t first = pipeline.submit(std::span(&drag, 1));
+  pipeline.wait_idle();
+  ASSERT_EQ(failures.size(), 1u);
+  EXPECT_EQ(failures[0].request, first);
+  EXPECT_TRUE(failures[0].refining);
+  ASSERT_NE(pipeline.last_error(), nullptr);
+  EXPECT_THROW(std::rethrow_exception(pipeline.last_error()), std::runtime_error);
+  EXPECT_EQ(published, (std::vector<int>{0, 1}));  // nothing after the failure
+  EXPECT_EQ(pipeline.settled_positions().rows(), shape.mesh.vertex_count());  // idle: returns at once
+
+  const HandleTransform further = drag.at_fraction(0.5);
+  pipeline.submit(std::span(&further, 1));
+  pipeline.wait_idle();
+  EXPECT_EQ(failures.size(), 1u);
+  ASSERT_GT(published.size(), 3u);
+  EXPECT_EQ(published[2], 0);
+  EXPECT_TRUE(converged.back());
 }
 
 // With refinement on, each request is answered by the paper's update first, then by iterations

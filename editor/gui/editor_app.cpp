@@ -356,6 +356,11 @@ void EditorApp::step() {
                          {"positions_digest", view.digest}});
       }
     }
+    // ... and so is an answer that failed (settled(): nothing more comes for these poses).
+    if (const auto failure = document_->answer_failure(); !failure.why.empty() && failure.request != announced_failure_) {
+      announced_failure_ = failure.request;
+      print_json_line({{"event", "error"}, {"message", failure.why}});
+    }
     finish_pending_save();
     if (document_->solver_state() == Document::SolverState::Building && build_started_ == Clock::time_point{}) build_started_ = Clock::now();
     if (document_->solver_state() != Document::SolverState::Building) build_started_ = {};

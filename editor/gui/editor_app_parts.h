@@ -318,7 +318,8 @@ class EditorApp {
   void draw_panel();
   void draw_footer();
   std::vector<std::string> shown_notes() const;
-  // Why the solver could not be set up for this selection ("" when it could), in the footer.
+  // Why the solver could not be set up for this selection, or could not answer the current poses
+  // ("" when it could), in the footer.
   std::string solver_failure() const;
   void draw_controls();
   void draw_pose_editor();
@@ -514,6 +515,7 @@ class EditorApp {
   int scene_ramp_ = 0;               // the ramp of the picture being drawn in slices
   bool panel_behind_picture_ = false;  // the last frame completed a picture in slices after its panel was made
   std::uint64_t announced_refinement_ = 0;  // the request whose settled refinement was announced last
+  std::uint64_t announced_failure_ = 0;     // the request whose failed answer was announced last
   Eigen::Index proxy_triangle_count_ = 0;
   // Starts simplifying a newly opened mesh, on a CPU device with --proxy auto; installs the proxy
   // when it is done (finish_proxy, each frame).

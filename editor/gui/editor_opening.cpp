@@ -119,7 +119,7 @@ void EditorApp::install(Loaded loaded_document, std::unique_ptr<engine::MeshBuff
   // shape it shows is the final one (view_motion).
   loaded->document->set_wake([] { glfwPostEmptyEvent(); });
   document_ = std::move(loaded->document);
-  announced_refinement_ = 0;  // its requests count from 1 again
+  announced_refinement_ = announced_failure_ = 0;  // its requests count from 1 again
   scene_size_of_ = nullptr;  // another mesh, perhaps where the last one was in memory
   mesh_name_ = loaded->session.mesh;
   const engine::Bounds bounds = loaded->scene.bounds;

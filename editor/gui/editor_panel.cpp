@@ -498,8 +498,10 @@ std::vector<std::string> EditorApp::shown_notes() const {
 }
 
 std::string EditorApp::solver_failure() const {
-  if (!document_ || document_->solver_state() != Document::SolverState::Failed) return {};
-  return document_->solver_message();
+  if (!document_) return {};
+  if (document_->solver_state() == Document::SolverState::Failed) return document_->solver_message();
+  if (std::string why = document_->answer_failure().why; !why.empty()) return why;
+  return {};
 }
 
 }  // namespace hdeform::cli::gui

@@ -543,6 +543,25 @@ void Document::install_build() {
       }
       if (wake_) wake_();
     }
+  }, [this, base](const UpdatePipeline::Failure& failure) {
+    std::string why = failure.refining ? "The refinement stopped: " : "These poses could not be solved: ";
+    try {
+      std::rethrow_exception(failure.error);
+    } catch (const std::bad_alloc&) {
+      why += "out of memory";
+    } catch (const std::exception& error) {
+      why += error.what();
+    } catch (...) {
+      why += "an unknown error";
+    }
+    why += failure.refining ? ". The shape shown is the last one it reached; new poses, or Refine off, solve again."
+                            : ". The shape shown is the last one solved; new poses solve again.";
+    {
+      std::lock_guard lock(refinement_mutex_);
+      failed_request_ = base + failure.request;
+      answer_failure_ = std::move(why);
+    }
+    if (wake_) wake_();
   });
   pipeline_->set_refinement(refine_);
   pipeline_->set_refinement_delay(refinement_delay_);
@@ -599,6 +618,7 @@ bool Document::settled() const {
   const EditStage stage = current_stage();
   if (stage.handles.empty() || !deformer_) return true;  // the rest shape, or a failure: nothing to wait for
   if (!pipeline_ || !submitted_ || !(*submitted_ == stage)) return false;
+  if (!answer_failure().why.empty()) return true;
   if (last_published_.load() != last_request_) return false;
   if (!refine_) return true;
   const RefinementView view = refinement();
@@ -627,7 +647,16 @@ Eigen::MatrixXd Document::result() {
   // The pipeline's answer to these poses: each of its edits starts from the paper's result and
   // stops where the stage's refinement_options() say, as stage_result() does.
   if (!submitted_ || !(*submitted_ == stage)) request_update();
-  return pipeline_->settled_positions();
+  Eigen::MatrixXd positions = pipeline_->settled_positions();
+  // Recorded before the pipeline said it was idle.
+  if (AnswerFailure failure = answer_failure(); !failure.why.empty()) throw SolveError(failure.why);
+  return positions;
+}
+
+Document::AnswerFailure Document::answer_failure() const {
+  std::lock_guard lock(refinement_mutex_);
+  if (failed_request_ == 0 || failed_request_ != last_request_) return {};
+  return {failed_request_, answer_failure_};
 }
 
 void Document::set_refinement_delay(std::chrono::milliseconds delay) {

@@ -187,8 +187,17 @@ class Document {
   };
   RefinementView refinement() const;
   // Whether the newest poses have their final shape on screen: solved and, with refinement on,
-  // refined until its stop. Then result() returns at once.
+  // refined until its stop; or their answer failed (answer_failure()), and nothing more comes.
+  // Then result() returns (or throws) at once.
   bool settled() const;
+  // Why the newest poses' answer failed (their update, or its refinement, threw: out of memory,
+  // say), and the request it answered; an empty `why` when it did not. The screen keeps the last
+  // shape published; result() throws `why`. New poses, or refinement turned off, are solved again.
+  struct AnswerFailure {
+    std::uint64_t request = 0;
+    std::string why;
+  };
+  AnswerFailure answer_failure() const;
   // The stage timings of the updates and refinement iterations published since the last call
   // (for the profiler panel; at most the last few hundred are kept).
   std::vector<UpdateTimings> take_update_timings();
@@ -206,7 +215,8 @@ class Document {
   std::uint64_t last_published_request() const { return last_published_.load(); }
   // The positions for the current poses: the pipeline's final answer to them, the shape the
   // screen shows once settled, which is exactly what `hdeform edit --session` computes (waits for
-  // a pending rebuild, the update in flight and the refinement until its stop).
+  // a pending rebuild, the update in flight and the refinement until its stop). Throws SolveError
+  // when the set-up or the answer failed (answer_failure()).
   Eigen::MatrixXd result();
   // Blocks until no rebuild is running (for tests and saving).
   void wait_until_ready();
@@ -290,6 +300,8 @@ class Document {
   std::uint64_t refinement_request_ = 0;  // the request the refinement view answers
   std::string refinement_digest_;
   bool refinement_finished_ = false;
+  std::uint64_t failed_request_ = 0;  // with refinement_mutex_: the last request whose answer failed
+  std::string answer_failure_;        // ... and why
   std::vector<UpdateTimings> update_timings_;          // with refinement_mutex_
   std::vector<RefinementTimings> refinement_timings_;  // with refinement_mutex_
   std::atomic<std::uint64_t> last_published_{0};

@@ -19,6 +19,9 @@
 /// (Deformer::complete; nothing to do for an exact solve) and publishes the answer whole before
 /// anything else; wait_idle() and settled_positions() wait for that too, so what they give is
 /// always whole.
+///
+/// An update or iteration that throws (out of memory, say) ends the work for its request: the
+/// failure callback says so, and a new request is answered as usual.
 #include <Eigen/Core>
 #include <chrono>
 #include <condition_variable>
@@ -54,9 +57,22 @@ class UpdatePipeline {
   };
   /// Called on a worker thread after each finished update; must not block for long.
   using Publish = std::function<void(const Result&)>;
+  /// What the failure callback receives: the request whose answer failed, and why. Nothing more
+  /// comes for that request: what was published for it stays the last answer to it.
+  struct Failure {
+    std::uint64_t request;
+    std::exception_ptr error;
+    /// Whether the refinement failed (its set-up, an iteration or the publication of one): the
+    /// paper's update of the request was published before. Otherwise the update itself failed
+    /// (or its publication), and the last answer published is an earlier request's.
+    bool refining;
+  };
+  /// Called on the pipeline's thread after a failure is recorded (last_error()), before
+  /// wait_idle() returns; must not throw.
+  using Fail = std::function<void(const Failure&)>;
 
-  /// Keeps references to both; the deformer must outlive the pipeline.
-  UpdatePipeline(Deformer& deformer, Publish publish);
+  /// Keeps references to all three; the deformer must outlive the pipeline.
+  UpdatePipeline(Deformer& deformer, Publish publish, Fail fail = {});
   ~UpdatePipeline();  ///< finishes the update in flight; a request still waiting is dropped
   UpdatePipeline(const UpdatePipeline&) = delete;
   UpdatePipeline& operator=(const UpdatePipeline&) = delete;
@@ -94,6 +110,7 @@ class UpdatePipeline {
 
   Deformer& deformer_;
   Publish publish_;
+  Fail fail_;
   mutable std::mutex mutex_;
   std::condition_variable idle_;
   std::condition_variable wake_;

@@ -7,7 +7,8 @@
 
 namespace hdeform {
 
-UpdatePipeline::UpdatePipeline(Deformer& deformer, Publish publish) : deformer_(deformer), publish_(std::move(publish)) {
+UpdatePipeline::UpdatePipeline(Deformer& deformer, Publish publish, Fail fail)
+    : deformer_(deformer), publish_(std::move(publish)), fail_(std::move(fail)) {
   pending_.reserve(deformer.handle_count());
   current_.reserve(deformer.handle_count());
   // The copy of the rest positions is the thread's first work, not its creator's: at 13 million
@@ -84,6 +85,7 @@ void UpdatePipeline::run() {
         request = answered_request_;
       }
     }
+    const bool refining = !update && whole_;  // (whole_ is this thread's to write)
     try {
       const auto start = std::chrono::steady_clock::now();
       RefinementStatus status;
@@ -138,10 +140,16 @@ void UpdatePipeline::run() {
         refined_out_ = converged || status.iterations >= deformer_.refinement_options().max_iterations;
       }
     } catch (...) {
-      std::lock_guard lock(mutex_);
-      error_ = std::current_exception();
-      refined_out_ = true;
-      whole_ = true;  // nothing more to try for this answer (the error says why)
+      const std::exception_ptr error = std::current_exception();
+      {
+        std::lock_guard lock(mutex_);
+        error_ = error;
+        refined_out_ = true;
+        whole_ = true;  // nothing more to try for this answer (the error says why)
+      }
+      // Before the loop's next turn says the pipeline is idle: whoever waits for it finds the
+      // failure recorded.
+      if (fail_) fail_(Failure{request, error, refining});
     }
   }
 }
