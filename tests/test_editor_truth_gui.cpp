@@ -192,6 +192,40 @@ TEST_F(ShownShapeGui, ATypedMoveThenItsOppositeSettleToWhatIsSaved) {
   quit(editor);
 }
 
+// Refine turned on after a drag (the session started without it): the shape settles and Save
+// writes it. The toggle once asked nothing new of the pipeline, which refined the shape on screen
+// all the same, so the shown poses were never those asked for with refinement on: Save waited
+// for ever ("once the shape settles").
+TEST_F(ShownShapeGui, RefineTurnedOnAfterADragSettlesToWhatIsSaved) {
+  auto arguments = cylinder_arguments();
+  arguments.push_back("--no-refine");
+  Editor editor(arguments);
+  ASSERT_NO_FATAL_FAILURE(until_ready(editor));
+  press("g");
+  const Eigen::Vector2f start = grab_pixel();
+  drag(start, start + Eigen::Vector2f(110.0f, 0.0f), 10);
+  std::this_thread::sleep_for(500ms);
+  EXPECT_TRUE(editor.events_named("refined").empty());
+  // The checkbox is below the panel's fold: scroll to it.
+  move_to({kPanelWidth * 0.5f, kHeight * 0.5f});
+  for (int k = 0; k < 10; ++k) xdotool("click 5");
+  std::this_thread::sleep_for(500ms);
+  const auto toggles = editor.events_named("refine toggle");
+  ASSERT_FALSE(toggles.empty());
+  const json& toggle = toggles.back();
+  const Eigen::Vector2f box(toggle.value("x", 0.0f) + 0.5f * toggle.value("height", 0.0f), toggle.value("y", 0.0f) + 0.5f * toggle.value("height", 0.0f));
+  ASSERT_GT(box.y(), 0.0f);
+  ASSERT_LT(box.y(), kHeight - 150.0f) << "the checkbox is not in view (the footer covers the last 150 pixels or so)";
+  const auto before = editor.event_count();
+  move_to(box);
+  xdotool("click 1");
+  const json refined = settled_after(editor, before);
+  EXPECT_GT(refined.value("iterations", 0), 3);
+  move_to({kWidth * 0.75f, kHeight * 0.5f});
+  ASSERT_NO_FATAL_FAILURE(expect_screen_saved_and_batch_agree(editor, refined, "refine turned on after a drag"));
+  quit(editor);
+}
+
 // Ctrl+O over unsaved edits asks: Cancel keeps everything (the edit, undo, the recovery file),
 // Discard opens the other mesh.
 TEST_F(ShownShapeGui, OpeningOverUnsavedEditsAsksFirst) {

@@ -327,6 +327,8 @@ class EditorApp {
   // Where the pose fields are (Move, Axis, Angle, Scale: one row each), on stdout whenever that
   // changes, for scripts that type into them.
   void announce_pose_fields();
+  // ... and where the Refine checkbox is (the last item drawn), the same way.
+  void announce_refine_toggle();
   void draw_dialogs();
 
   // The Open box starts from something that exists: the open mesh, else the folder of the file
@@ -585,6 +587,7 @@ class EditorApp {
   bool quit_ = false;
   int exit_code_ = 0;
   std::array<float, 4> announced_pose_fields_{};
+  std::array<float, 4> announced_refine_toggle_{};
   HandleGizmo gizmo_;
   GizmoPart gizmo_drag_ = GizmoPart::None;  // the part the current drag started on
   bool screenshot_requested_ = false;

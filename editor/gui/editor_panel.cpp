@@ -15,7 +15,7 @@ void EditorApp::draw_panel() {
   const float wrap = ImGui::GetContentRegionAvail().x;
   const auto wrapped_height = [wrap](const std::string& text) { return text.empty() ? 0.0f : ImGui::CalcTextSize(text.c_str(), nullptr, false, wrap).y; };
   const ImGuiStyle& style = ImGui::GetStyle();
-  const int figure_lines = editing && document_ ? 5 : 0;
+  const int figure_lines = editing && document_ ? (motion_detail_.enabled() ? 6 : 5) : 0;  // draw_footer's lines of figures
   float notes = 0.0f;
   for (const auto& note : shown_notes()) notes += wrapped_height(note) + style.ItemSpacing.y;
   if (const std::string failure = solver_failure(); !failure.empty()) notes += wrapped_height(failure) + style.ItemSpacing.y;
@@ -40,7 +40,7 @@ void EditorApp::draw_footer() {
     ImGui::Text("Input to screen: %s", percentile_text(statistics_.latencies()).c_str());
     if (motion_detail_.enabled()) ImGui::TextDisabled("While moving: a %d-triangle proxy", static_cast<int>(proxy_triangle_count_));
   }
-  ImGui::TextWrapped("%s", status_.c_str());
+  if (!status_.empty()) ImGui::TextWrapped("%s", status_.c_str());  // (an empty one would still take a line)
   for (const auto& note : shown_notes()) wrapped_in_color(ImVec4(1.0f, 0.8f, 0.3f, 1.0f), note);
   if (const std::string failure = solver_failure(); !failure.empty()) wrapped_in_color(ImVec4(1, 0.45f, 0.45f, 1), failure);
   if (!error_message_.empty()) wrapped_in_color(ImVec4(1, 0.45f, 0.45f, 1), error_message_);
@@ -181,10 +181,14 @@ void EditorApp::draw_controls() {
   }
 
   bool refine = document_->refine();
-  if (ImGui::Checkbox("Refine (as rigid as possible)", &refine)) {
+  const bool toggled = ImGui::Checkbox("Refine (as rigid as possible)", &refine);
+  announce_refine_toggle();
+  if (toggled) {
     document_->set_refine(refine);
     document_->commit(refine ? "refinement on" : "refinement off");
-    if (!refine) document_->request_update();  // back to the paper's result on screen
+    // The poses asked again with the new setting: off, the paper's result goes back on screen; on,
+    // the shape settles as for any request, and settled() (what Save waits for) can say so.
+    document_->request_update();
     status_ = refine ? "Refinement on: after each update, iterations until the shape settles" : "Refinement off: the paper's method alone";
   }
   if (ImGui::IsItemHovered()) {
@@ -344,6 +348,14 @@ void EditorApp::announce_pose_fields() {
   if (layout == announced_pose_fields_) return;
   announced_pose_fields_ = layout;
   print_json_line({{"event", "pose fields"}, {"x", layout[0]}, {"y", layout[1]}, {"width", layout[2]}, {"row", layout[3]}});
+}
+
+void EditorApp::announce_refine_toggle() {
+  const ImVec2 low = ImGui::GetItemRectMin(), high = ImGui::GetItemRectMax();
+  const std::array<float, 4> box{low.x, low.y, high.x - low.x, high.y - low.y};
+  if (box == announced_refine_toggle_) return;
+  announced_refine_toggle_ = box;
+  print_json_line({{"event", "refine toggle"}, {"x", box[0]}, {"y", box[1]}, {"width", box[2]}, {"height", box[3]}});
 }
 
 void EditorApp::draw_dialogs() {
