@@ -497,7 +497,7 @@ void Document::install_build() {
   deformer_constraints_ = build->constraints;
   deformer_rest_ = rest_.get();
   deformer_choice_ = build->choice;
-  request_base_ = last_request_;
+  request_base_ = last_request_.load();
   const std::uint64_t base = request_base_;
   pipeline_ = std::make_unique<UpdatePipeline>(*deformer_, [this, base](const UpdatePipeline::Result& result) {
     if (result.refinement.iterations == 0 && !result.completion) last_update_ms_ = result.update_ms;
@@ -610,7 +610,7 @@ std::uint64_t Document::request_update(bool partial) {
   if (!same_constraints(deformer_constraints_, stage.constraints()) && !previous_selection_answers(stage)) return 0;
   last_request_ = request_base_ + pipeline_->submit(stage.transforms(), partial ? partial_vertices_ : nullptr);
   submitted_ = stage;
-  return last_request_;
+  return last_request_.load();
 }
 
 bool Document::settled() const {
@@ -619,10 +619,10 @@ bool Document::settled() const {
   if (stage.handles.empty() || !deformer_) return true;  // the rest shape, or a failure: nothing to wait for
   if (!pipeline_ || !submitted_ || !(*submitted_ == stage)) return false;
   if (!answer_failure().why.empty()) return true;
-  if (last_published_.load() != last_request_) return false;
+  if (last_published_.load() != last_request_.load()) return false;
   if (!refine_) return true;
   const RefinementView view = refinement();
-  return view.request == last_request_ && view.finished;
+  return view.request == last_request_.load() && view.finished;
 }
 
 void Document::close() {
@@ -655,7 +655,7 @@ Eigen::MatrixXd Document::result() {
 
 Document::AnswerFailure Document::answer_failure() const {
   std::lock_guard lock(refinement_mutex_);
-  if (failed_request_ == 0 || failed_request_ != last_request_) return {};
+  if (failed_request_ == 0 || failed_request_ != last_request_.load()) return {};
   return {failed_request_, answer_failure_};
 }
 

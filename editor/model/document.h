@@ -193,6 +193,7 @@ class Document {
   // Why the newest poses' answer failed (their update, or its refinement, threw: out of memory,
   // say), and the request it answered; an empty `why` when it did not. The screen keeps the last
   // shape published; result() throws `why`. New poses, or refinement turned off, are solved again.
+  // Any thread (a wake may ask).
   struct AnswerFailure {
     std::uint64_t request = 0;
     std::string why;
@@ -306,7 +307,7 @@ class Document {
   std::vector<RefinementTimings> refinement_timings_;  // with refinement_mutex_
   std::atomic<std::uint64_t> last_published_{0};
   std::uint64_t request_base_ = 0;  // requests of earlier pipelines, so that numbers keep growing
-  std::uint64_t last_request_ = 0;
+  std::atomic<std::uint64_t> last_request_{0};  // written by the window's thread; answer_failure() reads it from any
   std::shared_ptr<const std::vector<int>> partial_vertices_;
 
   std::vector<Snapshot> history_;
