@@ -174,7 +174,7 @@ void EditorApp::draw_controls() {
     case Document::SolverState::NoHandle: ImGui::TextWrapped("Paint a handle (3) to deform."); break;
     case Document::SolverState::Building:
       ImGui::TextWrapped("%s...", document_->solver_message().c_str());
-      if (document_->drags_previous_selection()) ImGui::TextDisabled("Dragging with the previous set-up until then.");
+      if (document_->drags_previous_selection()) wrapped_in_color(ImGui::GetStyleColorVec4(ImGuiCol_TextDisabled), "Dragging with the previous set-up until then.");
       break;
     case Document::SolverState::Failed: break;  // in the footer (solver_failure), always in view
     case Document::SolverState::Ready: break;
@@ -204,7 +204,8 @@ void EditorApp::draw_controls() {
     } else {
       ImGui::Text("Refinement: %d iterations%s", status.iterations,
                   status.converged ? ", settled" : view.finished ? ", stopped at the cap" : "...");
-      ImGui::Text("Energy %.4g (paper's %.4g, %.1f ms each)", status.energy, status.unrefined_energy, view.iteration_ms);
+      // Wrapped: at the panel's width a scan's figures ran past its edge.
+      ImGui::TextWrapped("Energy %.4g (paper's %.4g, %.1f ms each)", status.energy, status.unrefined_energy, view.iteration_ms);
     }
     if (ImGui::IsItemHovered()) {
       ImGui::SetTooltip("Settled: an iteration would move no vertex by more than %g of the bounding box's diagonal\n"
