@@ -28,7 +28,10 @@ def ensure_solver(obj, wait):
             obj.hdeform["last_error"] = error
             return
         solver.install(obj, solver.Bound(setup, deformer))
-        solver.update(obj, wait=False)
+        if solver.bound(obj) is not None:
+            solver.update(obj, wait=False)
+        else:  # the solver settings changed while it was set up: again with the new ones
+            ensure_solver(obj, wait=False)
 
     setup_jobs.start(obj, setup, finish)
     return None

@@ -81,7 +81,9 @@ def finish_bind(context, obj, setup, deformer, record_all=False):
     solver.ensure_shape_keys(obj)
     settings.bound = True
     solver.install(obj, solver.Bound(setup, deformer))
-    solver.update(obj, wait=not settings.refine or bpy.app.background, force=True)
+    # (None when the solver settings changed while it was set up: the next move sets it up again.)
+    if solver.bound(obj) is not None:
+        solver.update(obj, wait=not settings.refine or bpy.app.background, force=True)
 
 
 class HDEFORM_OT_bind(Operator):

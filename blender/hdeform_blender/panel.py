@@ -56,6 +56,10 @@ class VIEW3D_PT_hdeform(Panel):
         sub.enabled = settings.refine
         sub.prop(settings, "refine_tolerance")
         layout.prop(settings, "backend")
+        layout.prop(settings, "resolution")
+        sub = layout.row()
+        sub.enabled = settings.resolution != 'exact'
+        sub.prop(settings, "base_vertices")
 
         status = layout.box()
         stage = setup_jobs.running(obj)
@@ -74,6 +78,12 @@ class VIEW3D_PT_hdeform(Panel):
             for k, line in enumerate(wrap("Bound; its solver is set up at the next move", 28)):
                 status.label(text=line, icon='INFO' if k == 0 else 'BLANK1')
         else:
+            if bound_object.solved_vertices < bound_object.vertices:
+                site = "Solved on a base of %d of the %d vertices" % (bound_object.solved_vertices, bound_object.vertices)
+            else:
+                site = "Solved on all %d vertices" % bound_object.vertices
+            for k, line in enumerate(wrap(site, 28)):
+                status.label(text=line, icon='MESH_DATA' if k == 0 else 'BLANK1')
             status.label(text="Update: %.1f ms" % bound_object.update_ms)
             if settings.refine:
                 status.label(text="%d iterations, %s" % (bound_object.iterations, "refining..." if bound_object.refining else "settled"))

@@ -2,7 +2,7 @@
 Empty and that Empty's frame at bind (the handle's rest frame). The vertex groups and the Empties
 are Blender's own data; nothing else is needed to deform again after reopening the file."""
 import bpy
-from bpy.props import BoolProperty, CollectionProperty, EnumProperty, FloatProperty, FloatVectorProperty, PointerProperty, StringProperty
+from bpy.props import BoolProperty, CollectionProperty, EnumProperty, FloatProperty, FloatVectorProperty, IntProperty, PointerProperty, StringProperty
 from bpy.types import PropertyGroup
 
 from . import solver
@@ -14,9 +14,9 @@ def is_empty(_self, obj):
     return obj.type == 'EMPTY'
 
 
-def settings_changed(_self, context):
+def settings_changed(self, _context):
     """A setting that changes the result: the shape key follows it (nothing to do until bound)."""
-    obj = context.object if context is not None else None
+    obj = self.id_data  # (the settings' own object: a script may change one that is not active)
     if obj is not None and obj.type == 'MESH' and obj.hdeform.bound and solver.bound(obj) is not None:
         try:
             solver.update(obj, wait=False, force=True)
@@ -24,9 +24,9 @@ def settings_changed(_self, context):
             pass  # the panel shows the problem at the next bind or move
 
 
-def backend_changed(_self, context):
-    """Another backend: the next move sets the solver up again with it."""
-    obj = context.object if context is not None else None
+def solver_changed(self, _context):
+    """Another backend or another place to solve: the next move sets the solver up again with it."""
+    obj = self.id_data
     if obj is not None and obj.type == 'MESH':
         solver.forget(obj)
 
@@ -53,10 +53,21 @@ class HdeformSettings(PropertyGroup):
                                     description="The refinement stops when an iteration lowers the energy by less than this fraction")
     roi_group: StringProperty(name="Region of interest", default="",
                               description="A vertex group: only it deforms, the rest stays (empty: the whole mesh)")
-    backend: EnumProperty(name="Backend", default='tree', update=backend_changed,
+    backend: EnumProperty(name="Backend", default='tree', update=solver_changed,
                           items=[('tree', "tree", "hdeform's supernodal Cholesky on the elimination tree (the fastest)"),
                                  ('eigen', "eigen", "Eigen's simplicial Cholesky"),
                                  ('cholmod', "cholmod", "SuiteSparse CHOLMOD")])
+    # Where the solves run, as hdeform's `resolution` and `base_vertices` (the editor's Solve on and
+    # Base size): a scan of millions of vertices is dragged through a base mesh.
+    resolution: EnumProperty(name="Solve on", default='auto', update=solver_changed,
+                             items=[('auto', "Automatic", "A base mesh from 500,000 vertices on, every vertex below"),
+                                    ('multiresolution', "A base mesh", "The update and the refinement solve on a simplified mesh, and the "
+                                     "fine detail follows it in local frames (fixed and handle vertices stay exact)"),
+                                    ('exact', "Every vertex", "Every vertex an unknown, however large the mesh: for a scan the set-up "
+                                     "then takes many times longer and needs many times the memory")])
+    base_vertices: IntProperty(name="Base size", default=150000, min=4, update=solver_changed,
+                               description="The base mesh's vertices, where it solves on one (it may keep a few more to keep the "
+                                           "mesh's topology)")
     handles: CollectionProperty(type=HdeformHandle)
 
 

@@ -85,6 +85,11 @@ def group_members(obj, groups):
     return [np.array(wanted[group.index], dtype=np.int64) for group in groups]
 
 
+def solver_choice(settings):
+    """The settings a Deformer is built with (the others apply to the one there is)."""
+    return settings.backend, settings.resolution, settings.base_vertices
+
+
 class Setup:
     """What a Deformer is built from, read on Blender's main thread."""
 
@@ -116,6 +121,9 @@ class Setup:
         self.positions = rest_positions(obj)
         self.triangles = triangles(obj, self.positions)
         self.backend = settings.backend
+        self.resolution = settings.resolution
+        self.base_vertices = settings.base_vertices
+        self.solver_choice = solver_choice(settings)
         self.tolerance = settings.refine_tolerance
         self.refine = settings.refine
 
@@ -128,7 +136,8 @@ def build(setup, progress=None):
     try:
         # With refinement on, its set-up comes with the rest (else with its first iteration).
         deformer = hdeform.Deformer(setup.positions, setup.triangles, setup.fixed, setup.handles, roi=setup.roi, backend=setup.backend,
-                                    refine="auto" if setup.refine else 0, refine_tolerance=setup.tolerance, progress=progress)
+                                    refine="auto" if setup.refine else 0, refine_tolerance=setup.tolerance, progress=progress,
+                                    resolution=setup.resolution, base_vertices=setup.base_vertices)
     except (ValueError, RuntimeError) as error:
         raise SetupError(str(error)) from error
     refused = []
@@ -158,6 +167,9 @@ class Bound:
         self.iterations = 0
         self.energy = 0.0
         self.unrefined_energy = 0.0
+        # Where it solves, for the panel (read once: the worker may be inside the Deformer).
+        self.solved_vertices = deformer.solved_vertex_count
+        self.vertices = deformer.vertex_count
         self.key_buffer = None  # the shape key's coordinates as foreach_set takes them, kept between writes
 
     def key_coordinates(self, positions):
@@ -215,11 +227,13 @@ def key(obj, create=False):
 
 def bound(obj):
     """The object's solver, or None, also when its set-up no longer fits the object (a handle group
-    added or removed, vertices added): then it is forgotten, to be set up again."""
+    added or removed, vertices added, another backend or place to solve chosen while it was being
+    set up): then it is forgotten, to be set up again."""
     bound_object = _bound.get(key(obj))
     if bound_object is None:
         return None
-    if [group.name for group in handle_groups(obj)] != bound_object.setup.handle_names or len(obj.data.vertices) != len(bound_object.setup.positions):
+    if ([group.name for group in handle_groups(obj)] != bound_object.setup.handle_names or len(obj.data.vertices) != len(bound_object.setup.positions)
+            or bound_object.setup.solver_choice != solver_choice(obj.hdeform)):
         forget(obj)
         return None
     return bound_object
@@ -308,9 +322,10 @@ def handle_items(obj):
 
 
 def transforms(obj, depsgraph=None):
-    """One hdeform.Transform per handle, and the pose's signature (the numbers it came from). With
-    a depsgraph, the Empties as it evaluated them (a render's frame animates its own copies, not
-    the file's objects)."""
+    """One hdeform.Transform per handle, and the pose's signature (the numbers it came from, and the
+    solver settings it is solved with: a key solved on a base is not the pose's key once the mesh
+    is to be solved on every vertex). With a depsgraph, the Empties as it evaluated them (a render's
+    frame animates its own copies, not the file's objects)."""
     hdeform = module()
     result, signature = [], []
     for item in handle_items(obj):
@@ -319,6 +334,7 @@ def transforms(obj, depsgraph=None):
         turn = turn_since_bind(obj, item, empty)
         result.append(handle_frames.handle_transform(hdeform, matrix(item.bind_frame), frame, turn))
         signature.append(repr((frame.round(12).tolist(), rotation_values(empty), empty.rotation_mode)))
+    signature.append(repr(solver_choice(obj.hdeform)))
     return result, "|".join(signature)
 
 

@@ -101,13 +101,14 @@ def handle_transform(obj, item):
     return (now @ np.linalg.inv(bind))[:3, :4]
 
 
-def cli_edit(obj, fixed, handles, matrices, refine):
-    """`hdeform edit` on the mesh as Blender holds it (written as OBJ: %.17g of its float32 values)."""
+def cli_edit(obj, fixed, handles, matrices, refine, options=()):
+    """`hdeform edit` on the mesh as Blender holds it (written as OBJ: %.17g of its float32 values),
+    with more of its `options` when given."""
     folder = scratch_folder("hdeform-blender-")
     positions, triangles = rest_and_triangles(obj)
     hdeform.write_mesh(str(folder / "mesh.obj"), positions, triangles)
     arguments = [EXECUTABLE, "edit", "--mesh", str(folder / "mesh.obj"), "--fixed", str(folder / "fixed.txt"), "--out", str(folder / "out.obj"),
-                 "--quiet", "--refine", "auto" if refine else "0"]
+                 "--quiet", "--refine", "auto" if refine else "0", *options]
     np.savetxt(folder / "fixed.txt", fixed, fmt="%d")
     for k, (handle, matrix) in enumerate(zip(handles, matrices)):
         np.savetxt(folder / f"handle{k}.txt", handle, fmt="%d")

@@ -32,15 +32,18 @@ def bound_cactus(refine):
     return obj, cactus
 
 
-def check(obj, fixed, handles, refine, what, cli=True):
+def check(obj, fixed, handles, refine, what, cli=True, resolution="auto", base_vertices=150000):
     item = obj.hdeform.handles[0]
     matrix = support.handle_transform(obj, item)
     positions, triangles = support.rest_and_triangles(obj)
-    module = hdeform.Deformer(positions, triangles, fixed, handles, refine="auto" if refine else 0).deform([hdeform.Transform(matrix)])
+    module = hdeform.Deformer(positions, triangles, fixed, handles, refine="auto" if refine else 0, resolution=resolution,
+                              base_vertices=base_vertices).deform([hdeform.Transform(matrix)])
     key = support.shape_key(obj)
     support.expect_same_as_float32(key, module, what + ": the module")
     if cli:
-        support.expect_same_as_float32(key, support.cli_edit(obj, fixed, handles, [matrix], refine), what + ": hdeform edit")
+        options = {"auto": [], "exact": ["--exact"], "multiresolution": ["--multiresolution"]}[resolution] + ["--base-vertices", str(base_vertices)]
+        support.expect_same_as_float32(key, support.cli_edit(obj, fixed, handles, [matrix], refine, options), what + ": hdeform edit")
+    return key
     assert np.abs(key - positions).max() > 1e-3 * np.abs(positions).max(), what + ": nothing moved"
     for v in fixed:
         assert np.array_equal(key[v], positions[v].astype(np.float32)), f"{what}: fixed vertex {v} moved"
@@ -58,6 +61,28 @@ for refine in (False, True):
     assert bpy.ops.hdeform.update(wait=True) == {'FINISHED'}
     check(obj, cactus["fixed"], cactus["handles"], refine, f"cactus, refine={refine}")
 support.passed("the cactus, with and without refinement, as the module and hdeform edit")
+
+# Where it solves: through a base mesh of 300 of the cactus's 1442 vertices, then on every vertex,
+# chosen after the bind (the next update sets the solver up again), as the module and hdeform edit.
+obj, cactus = support.bound_shape("cactus", 24, True)
+obj.hdeform.resolution = 'multiresolution'
+obj.hdeform.base_vertices = 300
+empty = obj.hdeform.handles[0].empty
+empty.location.x += 0.15
+empty.rotation_euler.y = 0.3
+bpy.context.view_layer.update()
+assert bpy.ops.hdeform.update(wait=True) == {'FINISHED'}
+from hdeform_blender import solver  # noqa: E402 - the add-on is enabled by now
+bound_object = solver.bound(obj)
+assert bound_object.deformer.resolution == "multiresolution", bound_object.deformer.resolution
+assert 300 <= bound_object.solved_vertices < 400 and bound_object.vertices == 1442, (bound_object.solved_vertices, bound_object.vertices)
+on_base = check(obj, cactus["fixed"], cactus["handles"], True, "cactus on a base of 300", resolution="multiresolution", base_vertices=300)
+obj.hdeform.resolution = 'exact'
+assert bpy.ops.hdeform.update(wait=True) == {'FINISHED'}
+assert solver.bound(obj).deformer.resolution == "exact" and solver.bound(obj).solved_vertices == 1442
+on_every_vertex = check(obj, cactus["fixed"], cactus["handles"], True, "cactus on every vertex", resolution="exact")
+assert np.abs(on_base - on_every_vertex).max() > 1e-4, "the base changed nothing"
+support.passed("a base mesh, then every vertex, chosen after the bind, as the module and hdeform edit")
 
 # Undo after a move: the previous key, exactly.
 obj, cactus = bound_cactus(True)
