@@ -79,10 +79,11 @@ class VIEW3D_PT_hdeform(Panel):
                 status.label(text=line, icon='INFO' if k == 0 else 'BLANK1')
         else:
             if bound_object.solved_vertices < bound_object.vertices:
-                site = "Solved on a base of %d of the %d vertices" % (bound_object.solved_vertices, bound_object.vertices)
+                site = "Solves on a base of %d of its %d vertices" % (bound_object.solved_vertices, bound_object.vertices)
             else:
-                site = "Solved on all %d vertices" % bound_object.vertices
-            for k, line in enumerate(wrap(site, 28)):
+                site = "Solves on all its %d vertices" % bound_object.vertices
+            # Narrower than the other lines: the numbers are long words, and the first line has an icon.
+            for k, line in enumerate(wrap(site, 22)):
                 status.label(text=line, icon='MESH_DATA' if k == 0 else 'BLANK1')
             status.label(text="Update: %.1f ms" % bound_object.update_ms)
             if settings.refine:
