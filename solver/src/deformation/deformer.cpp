@@ -43,12 +43,16 @@ constexpr Eigen::Index kBaseNestedDissectionFrom = 100'000;
 
 // The Laplacian, the inspection and the elimination order of a mesh solved at its own resolution.
 void exact_operators(const Mesh& mesh, EliminationOrder order, MeshOperators& operators) {
-  std::optional<trace::Scope> stage;
-  stage.emplace("cotangent weights", "set-up");
-  operators.weights = cotangent_weights(mesh);
-  stage.emplace("Laplacian", "set-up");
-  operators.laplacian = cotangent_laplacian(mesh, operators.weights);
-  stage.reset();
+  // (Scopes of their own, not one optional Scope re-emplaced: GCC's sanitizer builds warned that
+  // the optional's Scope may be used uninitialized.)
+  {
+    const trace::Scope traced("cotangent weights", "set-up");
+    operators.weights = cotangent_weights(mesh);
+  }
+  {
+    const trace::Scope traced("Laplacian", "set-up");
+    operators.laplacian = cotangent_laplacian(mesh, operators.weights);
+  }
   // The ordering needs only the Laplacian's pattern, the inspection only the weights: the two run
   // side by side.
   tbb::parallel_invoke(

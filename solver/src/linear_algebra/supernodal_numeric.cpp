@@ -158,15 +158,13 @@ bool factor_supernode(const PermutedMatrix& matrix, const Layout<RowValue>& layo
   return true;
 }
 
-}  // namespace
-
+// Every supernode, on the schedule's threads, each with a workspace of its own. (Here and not in
+// factor_numeric: a lambda there that names Workspace, a type of this file alone, in a function
+// other files link to, made GCC warn of the subobject's linkage.)
 template <class RowValue>
-bool factor_numeric(const PermutedMatrix& matrix, const FactorPattern& pattern, UninitializedVector<RowValue>& row_value,
-                    UninitializedVector<double>& column_value) {
+bool factor_supernodes(const PermutedMatrix& matrix, const FactorPattern& pattern, RowValue* row_value, double* column_value) {
   const auto size = static_cast<std::size_t>(pattern.size());
   const Supernodes& super = pattern.supernodes;
-  row_value.resize(pattern.nonzeros());  // every entry is written once, by the thread of its supernode
-  column_value.resize(pattern.nonzeros());
   std::size_t tallest = 0;
   for (int s = 0; s < super.count(); ++s) tallest = std::max(tallest, pattern.column_length(super.first_column[static_cast<std::size_t>(s)]));
   std::vector<Workspace> workspaces(std::max<std::size_t>(1, super.schedule.subtrees.size()));
@@ -176,12 +174,22 @@ bool factor_numeric(const PermutedMatrix& matrix, const FactorPattern& pattern, 
     w.target.resize(tallest);
     w.sum.resize(tallest);
   }
-  const Layout<RowValue> layout{pattern, column_value.data(), row_value.data()};
+  const Layout<RowValue> layout{pattern, column_value, row_value};
   std::atomic<bool> failed{false};
   for_each_node(super.schedule, workspaces, failed, [&](Workspace& w, int s) {
     if (!factor_supernode(matrix, layout, s, w)) failed.store(true, std::memory_order_relaxed);
   });
   return !failed.load();
+}
+
+}  // namespace
+
+template <class RowValue>
+bool factor_numeric(const PermutedMatrix& matrix, const FactorPattern& pattern, UninitializedVector<RowValue>& row_value,
+                    UninitializedVector<double>& column_value) {
+  row_value.resize(pattern.nonzeros());  // every entry is written once, by the thread of its supernode
+  column_value.resize(pattern.nonzeros());
+  return factor_supernodes(matrix, pattern, row_value.data(), column_value.data());
 }
 
 template bool factor_numeric(const PermutedMatrix&, const FactorPattern&, UninitializedVector<double>&, UninitializedVector<double>&);
