@@ -43,10 +43,17 @@ def check(obj, fixed, handles, refine, what, cli=True, resolution="auto", base_v
     if cli:
         options = {"auto": [], "exact": ["--exact"], "multiresolution": ["--multiresolution"]}[resolution] + ["--base-vertices", str(base_vertices)]
         support.expect_same_as_float32(key, support.cli_edit(obj, fixed, handles, [matrix], refine, options), what + ": hdeform edit")
-    return key
     assert np.abs(key - positions).max() > 1e-3 * np.abs(positions).max(), what + ": nothing moved"
     for v in fixed:
         assert np.array_equal(key[v], positions[v].astype(np.float32)), f"{what}: fixed vertex {v} moved"
+    # What the viewport, the modifiers after the key and the exporters see: Blender's evaluation of
+    # the mesh with the key (Basis + 1.0 × (key − Basis) in float32: the last place may differ).
+    evaluated = obj.evaluated_get(bpy.context.evaluated_depsgraph_get()).data
+    shown = np.empty(len(evaluated.vertices) * 3, dtype=np.float32)
+    evaluated.vertices.foreach_get("co", shown)
+    off = np.abs(shown.reshape(-1, 3) - key).max()
+    assert off <= 4 * np.finfo(np.float32).eps * np.abs(positions).max(), f"{what}: the evaluated mesh is {off} from the key"
+    return key
 
 
 for refine in (False, True):
