@@ -3,7 +3,11 @@ the same Blender and against Blender's own Laplacian Deform modifier on the same
 drag:
 
     PYTHONPATH=build/python:blender blender -b --factory-startup --python tests/blender/benchmark.py -- \\
-        ../shared/meshes/buddha [out.json [pictures-folder]]
+        ../shared/meshes/buddha [out.json [pictures-folder]] [--subdivide N]
+
+- --subdivide N: the Buddha subdivided N times with relief, as `hdeform bench --subdivide N --relief
+  0.001` makes it (N = 2: 3.3M triangles, solved on a base mesh); Laplacian Deform is left out
+  there (its bind alone takes minutes), and the bind is measured twice instead of five times;
 
 - bind: Bind (reading the groups, the solver's set-up, the Empty, the shape keys) against the
   module's set-up alone (hdeform.Deformer);
@@ -28,6 +32,11 @@ from mathutils import Matrix
 import hdeform
 
 arguments = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
+levels = 0
+if "--subdivide" in arguments:
+    at = arguments.index("--subdivide")
+    levels = int(arguments[at + 1])
+    del arguments[at:at + 2]
 folder = Path(arguments[0]) if arguments else Path("../shared/meshes/buddha")
 out = Path(arguments[1]) if len(arguments) > 1 else None
 pictures = Path(arguments[2]) if len(arguments) > 2 else None
@@ -45,8 +54,14 @@ def new_scene():
 
 def buddha_object(V, F, fixed, handle):
     mesh = bpy.data.meshes.new("buddha")
-    mesh.from_pydata(V.tolist(), [], F.tolist())
-    mesh.update()
+    mesh.vertices.add(len(V))
+    mesh.vertices.foreach_set("co", V.astype(np.float32).ravel())
+    mesh.loops.add(F.size)
+    mesh.loops.foreach_set("vertex_index", F.astype(np.int32).ravel())
+    mesh.polygons.add(len(F))
+    mesh.polygons.foreach_set("loop_start", np.arange(0, F.size, 3, dtype=np.int32))
+    mesh.polygons.foreach_set("loop_total", np.full(len(F), 3, dtype=np.int32))
+    mesh.update(calc_edges=True)
     obj = bpy.data.objects.new("buddha", mesh)
     bpy.context.scene.collection.objects.link(obj)
     bpy.context.view_layer.objects.active = obj
@@ -61,12 +76,15 @@ fixed = np.loadtxt(folder / "buddha-206k-fixed.txt", dtype=np.int64)
 handle = np.loadtxt(folder / "buddha-206k-handle.txt", dtype=np.int64)
 translate = np.loadtxt(folder / "buddha-206k-translate.txt")
 shift = translate[:, 3]
-report = {"mesh": str(folder / "buddha-206k.obj"), "vertices": len(V), "triangles": len(F), "steps": STEPS,
+if levels > 0:
+    V, F, (fixed, handle) = hdeform.subdivide(V, F, levels, [fixed, handle])
+    V = hdeform.add_relief(V, F, 0.001)
+report = {"mesh": str(folder / "buddha-206k.obj"), "subdivided": levels, "vertices": len(V), "triangles": len(F), "steps": STEPS,
           "blender": bpy.app.version_string}
 
 # The add-on, without refinement (the paper's update is what a move shows first). A first bind
 # on a fresh scene, five times, each followed by the module's set-up of the same mesh alone.
-BINDS = 5
+BINDS = 5 if levels == 0 else 2
 bind_samples, setup_samples = [], []
 for _ in range(BINDS):
     new_scene()
@@ -117,48 +135,51 @@ obj.hdeform.refine = True
 began = time.perf_counter()
 bpy.ops.hdeform.update(wait=True)
 report["refined_update_ms"] = round((time.perf_counter() - began) * 1000.0, 1)
-hdeform_result = hdeform_refined = None
 key.data.foreach_get("co", result)
 hdeform_refined = result.reshape(-1, 3).copy()
 
-# Blender's Laplacian Deform: anchors = fixed and handle vertices; a Hook moves the handle's.
-new_scene()
-obj = buddha_object(V, F, fixed, handle)
-anchors = obj.vertex_groups.new(name="anchors")
-anchors.add(np.concatenate([fixed, handle]).tolist(), 1.0, 'REPLACE')
-hook_empty = bpy.data.objects.new("hook", None)
-bpy.context.scene.collection.objects.link(hook_empty)
-hook_empty.location = tuple(positions[handle].mean(axis=0))
-hook = obj.modifiers.new("Hook", 'HOOK')
-hook.object = hook_empty
-hook.vertex_group = "hdeform_handle_1"
-bpy.context.view_layer.update()
-hook.matrix_inverse = Matrix(np.linalg.inv(np.array(hook_empty.matrix_world)).tolist())
-laplacian = obj.modifiers.new("LaplacianDeform", 'LAPLACIANDEFORM')
-laplacian.vertex_group = "anchors"
-laplacian.iterations = 1
-started = time.perf_counter()
-with bpy.context.temp_override(object=obj, active_object=obj):
-    bpy.ops.object.laplaciandeform_bind(modifier="LaplacianDeform")
-depsgraph = bpy.context.evaluated_depsgraph_get()
-obj.evaluated_get(depsgraph)  # the bind happens at the next evaluation
-bpy.context.view_layer.update()
-report["laplacian_bind_ms"] = round((time.perf_counter() - started) * 1000.0, 1)
-hook_start = np.array(hook_empty.location)
-laplacian_samples = []
-for step in range(1, STEPS + 1):
-    hook_empty.location = tuple(hook_start + shift * step / STEPS)
-    began = time.perf_counter()
+
+def laplacian_deform():
+    """Blender's Laplacian Deform: anchors = fixed and handle vertices; a Hook moves the handle's. Its
+    result after the drag."""
+    new_scene()
+    obj = buddha_object(V, F, fixed, handle)
+    anchors = obj.vertex_groups.new(name="anchors")
+    anchors.add(np.concatenate([fixed, handle]).tolist(), 1.0, 'REPLACE')
+    hook_empty = bpy.data.objects.new("hook", None)
+    bpy.context.scene.collection.objects.link(hook_empty)
+    hook_empty.location = tuple(positions[handle].mean(axis=0))
+    hook = obj.modifiers.new("Hook", 'HOOK')
+    hook.object = hook_empty
+    hook.vertex_group = "hdeform_handle_1"
     bpy.context.view_layer.update()
-    evaluated = obj.evaluated_get(bpy.context.evaluated_depsgraph_get())
-    evaluated.data.vertices[0].co  # noqa: B018 - the evaluated mesh, computed
-    laplacian_samples.append(time.perf_counter() - began)
-report["laplacian_update_ms"] = median_ms(laplacian_samples)
-evaluated = obj.evaluated_get(bpy.context.evaluated_depsgraph_get()).to_mesh()
-laplacian_result = np.empty(len(V) * 3, dtype=np.float32)
-evaluated.vertices.foreach_get("co", laplacian_result)
-laplacian_result = laplacian_result.reshape(-1, 3)
-report["laplacian_moved"] = float(np.abs(laplacian_result - positions).max())
+    hook.matrix_inverse = Matrix(np.linalg.inv(np.array(hook_empty.matrix_world)).tolist())
+    laplacian = obj.modifiers.new("LaplacianDeform", 'LAPLACIANDEFORM')
+    laplacian.vertex_group = "anchors"
+    laplacian.iterations = 1
+    started = time.perf_counter()
+    with bpy.context.temp_override(object=obj, active_object=obj):
+        bpy.ops.object.laplaciandeform_bind(modifier="LaplacianDeform")
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    obj.evaluated_get(depsgraph)  # the bind happens at the next evaluation
+    bpy.context.view_layer.update()
+    report["laplacian_bind_ms"] = round((time.perf_counter() - started) * 1000.0, 1)
+    hook_start = np.array(hook_empty.location)
+    laplacian_samples = []
+    for step in range(1, STEPS + 1):
+        hook_empty.location = tuple(hook_start + shift * step / STEPS)
+        began = time.perf_counter()
+        bpy.context.view_layer.update()
+        evaluated = obj.evaluated_get(bpy.context.evaluated_depsgraph_get())
+        evaluated.data.vertices[0].co  # noqa: B018 - the evaluated mesh, computed
+        laplacian_samples.append(time.perf_counter() - began)
+    report["laplacian_update_ms"] = median_ms(laplacian_samples)
+    evaluated = obj.evaluated_get(bpy.context.evaluated_depsgraph_get()).to_mesh()
+    laplacian_result = np.empty(len(V) * 3, dtype=np.float32)
+    evaluated.vertices.foreach_get("co", laplacian_result)
+    laplacian_result = laplacian_result.reshape(-1, 3)
+    report["laplacian_moved"] = float(np.abs(laplacian_result - positions).max())
+    return laplacian_result
 
 
 def edge_strain(result):
@@ -168,13 +189,17 @@ def edge_strain(result):
     return float(np.mean(np.abs(now / rest - 1.0)))
 
 
-report["mean_edge_strain"] = {"hdeform_refined": edge_strain(hdeform_refined), "laplacian_deform": edge_strain(laplacian_result)}
+results = {"hdeform_refined": hdeform_refined}
+if levels == 0:
+    results["laplacian_deform"] = laplacian_deform()
+report["mean_edge_strain"] = {name: edge_strain(result) for name, result in results.items()}
 
 if pictures is not None:
-    # Both results as OBJ, for `hdeform render` (the README's pictures come from it).
+    # The results as OBJ, for `hdeform render` (the README's pictures come from it).
     pictures.mkdir(parents=True, exist_ok=True)
-    for name, result in (("hdeform", hdeform_refined), ("laplacian-deform", laplacian_result)):
-        hdeform.write_mesh(str(pictures / f"blender-{name}.obj"), result.astype(np.float64), F)
+    names = {"hdeform_refined": "hdeform", "laplacian_deform": "laplacian-deform"}
+    for name, result in results.items():
+        hdeform.write_mesh(str(pictures / f"blender-{names[name]}.obj"), result.astype(np.float64), F)
 
 text = json.dumps(report, indent=2)
 print(text)
