@@ -139,14 +139,32 @@ TEST_F(Cli, MultiresolutionOnTheCommandLineAndInASession) {
   ASSERT_EQ(tiny_report["warnings"].size(), 1u) << tiny_report["warnings"];
   EXPECT_TRUE(contains(tiny_report["warnings"][0].get<std::string>(), expected)) << tiny_report["warnings"];
   EXPECT_TRUE(contains(tiny.err, "warning: " + expected)) << tiny.err;
-  // bench reports the set-up's warnings too; its second handle (five vertices) finds no base
-  // vertex of its own on so small a base, and it says so rather than that the handle is empty.
+  // bench reports the set-up's warnings too. Its second handle (five vertices) holds no base
+  // vertex of its own on a base of 4: it pins the base vertex nearest it, which nothing else holds.
   const auto bench = run(dir, "bench --shape cactus --resolution 12 --steps 3 --quiet --multiresolution --base-vertices 30");
   ASSERT_EQ(bench.exit_code, 0) << bench.err;
   EXPECT_TRUE(nlohmann::json::parse(bench.out)["warnings"].empty());
   const auto tiny_bench = run(dir, "bench --shape cactus --resolution 12 --steps 3 --quiet --multiresolution --base-vertices 4");
-  EXPECT_EQ(tiny_bench.exit_code, 1);
-  EXPECT_TRUE(contains(tiny_bench.err, "handle 2 (5 vertices) reaches no vertex of the base mesh")) << tiny_bench.err;
+  EXPECT_EQ(tiny_bench.exit_code, 0) << tiny_bench.err;
+  // A handle of one vertex that is not the base's, everything else fixed: the fixed vertices hold
+  // every base vertex already, and the handle is refused by name rather than left empty.
+  ASSERT_EQ(run(dir, "edit --shape cactus --resolution 12 --quiet --out " + path("cactus.obj")).exit_code, 0);
+  const Mesh small_cactus = read_obj(path("cactus.obj"));
+  const auto operators = MeshOperators::of(small_cactus, Resolution::Multiresolution, 4);
+  int lone = 0;
+  while (operators->multiresolution->encoding.base_vertex(lone) >= 0) ++lone;
+  std::string all_but_lone;
+  for (int v = 0; v < small_cactus.vertex_count(); ++v) {
+    if (v != lone) all_but_lone += std::to_string(v) + "\n";
+  }
+  dir.write("all-but-one.txt", all_but_lone);
+  dir.write("lone.txt", std::to_string(lone) + "\n");
+  dir.write("lift.txt", "1 0 0 0\n0 1 0 0\n0 0 1 0.1\n");
+  const auto refused = run(dir, "edit --mesh " + path("cactus.obj") + " --fixed " + path("all-but-one.txt") + " --handle " + path("lone.txt") +
+                                    " --transform " + path("lift.txt") + " --multiresolution --base-vertices 4 --out " + path("refused.obj"));
+  EXPECT_EQ(refused.exit_code, 1);
+  EXPECT_TRUE(contains(refused.err, "handle 1 (1 vertex) reaches no vertex of the base mesh")) << refused.err;
+  EXPECT_FALSE(std::filesystem::exists(path("refused.obj")));
   const auto exact = run(dir, "edit --shape cactus --quiet --out " + path("exact.obj"));
   ASSERT_EQ(exact.exit_code, 0) << exact.err;
   EXPECT_EQ(nlohmann::json::parse(exact.out)["resolution"], "exact");  // a small mesh, by default

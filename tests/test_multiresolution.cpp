@@ -7,6 +7,7 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <numeric>
 #include <string>
@@ -194,7 +195,7 @@ TEST(Multiresolution, AHandleSmallerThanABaseTriangleReachesTheBase) {
   }
   ASSERT_GE(lone, 0);
   EditConstraints constraints{relief.constraints.fixed, {{lone}}, {}};
-  const EditConstraints base = base_constraints(constraints, encoding);
+  const EditConstraints base = base_constraints(constraints, relief.mesh.triangles, encoding);
   ASSERT_EQ(base.handles.size(), 1u);
   EXPECT_FALSE(base.handles[0].empty());
   for (const int j : base.handles[0]) {
@@ -208,6 +209,92 @@ TEST(Multiresolution, AHandleSmallerThanABaseTriangleReachesTheBase) {
   Eigen::MatrixXd positions;
   deformer.deform(std::span(&pull, 1), positions);
   EXPECT_TRUE((positions.row(lone).array() == pull.apply(relief.mesh.positions.row(lone).transpose()).transpose().array()).all());
+}
+
+// The largest ratio of deformed to rest length over the edges at `vertex`.
+double largest_stretch_at(const Mesh& rest, const Eigen::MatrixXd& deformed, int vertex) {
+  double largest = 0.0;
+  for (Eigen::Index t = 0; t < rest.triangle_count(); ++t) {
+    for (int k = 0; k < 3; ++k) {
+      if (rest.triangles(t, k) != vertex) continue;
+      for (const int other : {rest.triangles(t, (k + 1) % 3), rest.triangles(t, (k + 2) % 3)}) {
+        largest = std::max(largest, (deformed.row(vertex) - deformed.row(other)).norm() /
+                                        (rest.positions.row(vertex) - rest.positions.row(other)).norm());
+      }
+    }
+  }
+  return largest;
+}
+
+TEST(Multiresolution, EachPatchOfAFixedSetReachesTheBase) {
+  // The fixed set: the bar's foot, which the base has vertices of, and one vertex halfway up that
+  // the base does not have (a second patch, as a scan's other paws are).
+  const Relief relief = bar_with_relief();
+  const Eigen::Index base_size = relief.mesh.vertex_count() / 20;
+  const auto operators = MeshOperators::of(relief.mesh, Resolution::Multiresolution, base_size);
+  const DetailEncoding& encoding = operators->multiresolution->encoding;
+  Eigen::Index axis = 0;
+  (relief.mesh.positions.colwise().maxCoeff() - relief.mesh.positions.colwise().minCoeff()).maxCoeff(&axis);
+  const double middle = 0.5 * (relief.mesh.positions.col(axis).maxCoeff() + relief.mesh.positions.col(axis).minCoeff());
+  int lone = -1;
+  double closest = std::numeric_limits<double>::infinity();
+  for (int v = 0; v < relief.mesh.vertex_count(); ++v) {
+    const double off = std::abs(relief.mesh.positions(v, axis) - middle);
+    if (encoding.base_vertex(v) < 0 && off < closest) {
+      closest = off;
+      lone = v;
+    }
+  }
+  ASSERT_GE(lone, 0);
+  EditConstraints constraints = relief.constraints;
+  ASSERT_EQ(std::count(constraints.fixed.begin(), constraints.fixed.end(), lone), 0);
+  constraints.fixed.push_back(lone);
+  const EditConstraints base = base_constraints(constraints, relief.mesh.triangles, encoding);
+  const auto corners = encoding.foot_corners(lone);
+  const auto weights = encoding.foot_weights(lone);
+  EXPECT_NEAR(weights[0] + weights[1] + weights[2], 1.0, 1e-12);
+  const auto nearest = static_cast<std::size_t>(std::max_element(weights.begin(), weights.end()) - weights.begin());
+  for (std::size_t k = 0; k < 3; ++k) {
+    EXPECT_EQ(std::count(base.fixed.begin(), base.fixed.end(), corners[k]), k == nearest ? 1 : 0)
+        << "base vertex " << corners[k] << " under the lone fixed vertex, weight " << weights[k];
+  }
+
+  // The bar bent: around the lone vertex the result stays as whole as the exact solve's, where the
+  // base left free there would pull the vertex's neighbours away from it.
+  Eigen::MatrixXd on_base, exact;
+  Deformer(relief.mesh, constraints, operators, multiresolution(base_size)).deform(std::span(&relief.transform, 1), on_base);
+  Deformer(relief.mesh, constraints).deform(std::span(&relief.transform, 1), exact);
+  const double exact_stretch = largest_stretch_at(relief.mesh, exact, lone);
+  EXPECT_LT(largest_stretch_at(relief.mesh, on_base, lone), 1.5 * exact_stretch) << "exact: " << exact_stretch;
+}
+
+TEST(Multiresolution, AHandleWhoseNearestBaseVertexIsFixedTakesAnotherCornerOfItsFoot) {
+  const Relief relief = bar_with_relief();
+  const auto operators = MeshOperators::of(relief.mesh, Resolution::Multiresolution, relief.mesh.vertex_count() / 20);
+  const DetailEncoding& encoding = operators->multiresolution->encoding;
+  int lone = -1;
+  for (const int v : relief.constraints.handles[0]) {
+    if (encoding.base_vertex(v) < 0) {
+      lone = v;
+      break;
+    }
+  }
+  ASSERT_GE(lone, 0);
+  const auto corners = encoding.foot_corners(lone);
+  const auto weights = encoding.foot_weights(lone);
+  const auto nearest = static_cast<std::size_t>(std::max_element(weights.begin(), weights.end()) - weights.begin());
+  // The fine vertex of the nearest corner painted fixed.
+  int nearest_fine = -1;
+  for (int v = 0; v < relief.mesh.vertex_count() && nearest_fine < 0; ++v) {
+    if (encoding.base_vertex(v) == corners[nearest]) nearest_fine = v;
+  }
+  ASSERT_GE(nearest_fine, 0);
+  EditConstraints constraints{relief.constraints.fixed, {{lone}}, {}};
+  constraints.fixed.push_back(nearest_fine);
+  const EditConstraints base = base_constraints(constraints, relief.mesh.triangles, encoding);
+  ASSERT_EQ(base.handles[0].size(), 1u);
+  EXPECT_NE(base.handles[0][0], corners[nearest]);
+  EXPECT_NE(std::find(corners.begin(), corners.end(), base.handles[0][0]), corners.end());
 }
 
 TEST(Multiresolution, AHandleThatReachesNoBaseVertexOfItsOwnIsRefusedByName) {

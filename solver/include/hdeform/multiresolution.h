@@ -107,6 +107,9 @@ class DetailEncoding {
   /// The corners (base vertices) of a fine vertex's foot triangle; all −1 for a vertex no triangle
   /// references.
   std::array<int, 3> foot_corners(int fine_vertex) const;
+  /// The barycentric weights of those corners at the vertex's foot; zeros for a base vertex and
+  /// for a vertex no triangle references.
+  std::array<double, 3> foot_weights(int fine_vertex) const;
   /// The largest distance from a fine vertex to its foot (the detail's largest length).
   double largest_detail() const { return largest_detail_; }
 
@@ -151,10 +154,12 @@ class DetailEncoding {
   double largest_detail_ = 0.0;
 };
 
-/// A fine edit's sets on the base: a base vertex belongs to a set when its fine vertex does. A set
-/// with fine vertices but none of the base's (a patch smaller than a base triangle) takes the
-/// corners of its vertices' foot triangles that no other set holds. The region of interest is
-/// carried the same way, widened by those corners.
-EditConstraints base_constraints(const EditConstraints& fine, const DetailEncoding& encoding);
+/// A fine edit's sets on the base: a base vertex belongs to a set when its fine vertex does. Each
+/// connected patch of a set (over the fine triangles' edges) that holds none of the base's vertices
+/// (a patch smaller than a base triangle) takes, for each of its vertices, the corner of the foot
+/// triangle nearest the foot (of the largest weight), where no other set holds it; where other sets
+/// hold all of those, one of its feet's other corners. The region of interest is carried vertex by
+/// vertex, widened by the corners of the feet of its vertices that are not the base's.
+EditConstraints base_constraints(const EditConstraints& fine, const Eigen::MatrixXi& fine_triangles, const DetailEncoding& encoding);
 
 }  // namespace hdeform

@@ -16,7 +16,7 @@ void Deformer::set_up_on_base(const ProgressCallback& progress) {
   const auto& multiresolution = *operators_->multiresolution;
   DeformerOptions base_options = options_;
   base_options.resolution = Resolution::Exact;
-  EditConstraints on_base = base_constraints(constraints_, multiresolution.encoding);
+  EditConstraints on_base = base_constraints(constraints_, rest_.triangles, multiresolution.encoding);
   // A handle that reaches no base vertex of its own: every base vertex under it already belongs
   // to the fixed set or an earlier handle (a small handle beside another set on a coarse base).
   for (std::size_t h = 0; h < on_base.handles.size(); ++h) {

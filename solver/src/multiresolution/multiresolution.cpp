@@ -16,6 +16,7 @@
 #include "hdeform/errors.h"
 #include "hdeform/trace.h"
 #include "lanes.h"
+#include "mesh/disjoint_sets.h"
 #include "target_clones.h"
 
 namespace hdeform {
@@ -547,35 +548,78 @@ std::array<int, 3> DetailEncoding::foot_corners(int fine_vertex) const {
   return {base_triangles_(t, 0), base_triangles_(t, 1), base_triangles_(t, 2)};
 }
 
-EditConstraints base_constraints(const EditConstraints& fine, const DetailEncoding& encoding) {
+std::array<double, 3> DetailEncoding::foot_weights(int fine_vertex) const {
+  const auto i = static_cast<std::size_t>(fine_vertex);
+  if (foot_triangle_[i] < 0 || row_of_fine_[i] < 0) return {0.0, 0.0, 0.0};
+  const FineRow& row = rows_[static_cast<std::size_t>(row_of_fine_[i])];
+  return {1.0 - row.wb - row.wc, row.wb, row.wc};
+}
+
+EditConstraints base_constraints(const EditConstraints& fine, const Eigen::MatrixXi& fine_triangles, const DetailEncoding& encoding) {
   const auto base_count = static_cast<std::size_t>(encoding.base_count());
+  const auto fine_count = static_cast<std::size_t>(encoding.fine_count());
   // Owner of each base vertex among the fine sets: −2 none, −1 fixed, h ≥ 0 handle h.
   std::vector<int> owner(base_count, -2);
+  std::vector<int> set_of(fine_count, -2);  // the same for the fine vertices
   auto carry_own = [&](const std::vector<int>& vertices, int who) {
-    std::size_t carried = 0;
     for (const int v : vertices) {
+      set_of[static_cast<std::size_t>(v)] = who;
       const int j = encoding.base_vertex(v);
-      if (j >= 0 && owner[static_cast<std::size_t>(j)] == -2) {
-        owner[static_cast<std::size_t>(j)] = who;
-        ++carried;
-      }
+      if (j >= 0 && owner[static_cast<std::size_t>(j)] == -2) owner[static_cast<std::size_t>(j)] = who;
     }
-    return carried;
   };
-  std::vector<std::size_t> carried(fine.handles.size() + 1);
-  carried[0] = carry_own(fine.fixed, -1);
-  for (std::size_t h = 0; h < fine.handles.size(); ++h) carried[h + 1] = carry_own(fine.handles[h], static_cast<int>(h));
-  // Sets below the base's resolution: the corners of their feet.
-  auto carry_feet = [&](const std::vector<int>& vertices, int who) {
+  carry_own(fine.fixed, -1);
+  for (std::size_t h = 0; h < fine.handles.size(); ++h) carry_own(fine.handles[h], static_cast<int>(h));
+
+  // A set painted in several places (a fixed paw and the other feet) is carried patch by patch: a
+  // patch smaller than a base triangle has no base vertex of its own, and left free on the base it
+  // would move with the base while its fine vertices stay where the set says, stretching the
+  // triangles between them. Such a patch pins base vertices under it (below).
+  detail::DisjointSets patches(fine_count);
+  for (Eigen::Index t = 0; t < fine_triangles.rows(); ++t) {
+    for (int k = 0; k < 3; ++k) {
+      const int a = fine_triangles(t, k), b = fine_triangles(t, (k + 1) % 3);
+      const int set = set_of[static_cast<std::size_t>(a)];
+      if (set != -2 && set == set_of[static_cast<std::size_t>(b)]) patches.unite(a, b);
+    }
+  }
+  std::vector<char> reaches_base(fine_count, 0);  // by patch root
+  for (std::size_t v = 0; v < fine_count; ++v) {
+    if (set_of[v] != -2 && encoding.base_vertex(static_cast<int>(v)) >= 0) {
+      reaches_base[static_cast<std::size_t>(patches.find(static_cast<int>(v)))] = 1;
+    }
+  }
+  // Each vertex of such a patch pins the base vertex nearest its foot (its foot triangle's corner of
+  // the largest weight). All three corners would hold a base triangle's worth of surface around a
+  // patch of a vertex or two (on the 51K Buddha with 43 small fixed patches, the mean deviation
+  // from the exact solve grew 1.7 to 4.3 times). A patch whose nearest corners all belong to other
+  // sets takes one of its feet's other corners.
+  std::vector<char> pinned(fine_count, 0);  // by patch root: it holds a base vertex now
+  // In the first pass each vertex's nearest corner; in the second, for a patch still without one,
+  // the first corner by weight that is free.
+  auto carry_feet = [&](const std::vector<int>& vertices, int who, bool nearest_only) {
     for (const int v : vertices) {
-      for (const int j : encoding.foot_corners(v)) {
-        if (j >= 0 && owner[static_cast<std::size_t>(j)] == -2) owner[static_cast<std::size_t>(j)] = who;
+      const auto root = static_cast<std::size_t>(patches.find(v));
+      if (reaches_base[root] || (!nearest_only && pinned[root])) continue;
+      const auto corners = encoding.foot_corners(v);
+      const auto weights = encoding.foot_weights(v);
+      std::array<std::size_t, 3> by_weight{0, 1, 2};
+      std::stable_sort(by_weight.begin(), by_weight.end(), [&](std::size_t a, std::size_t b) { return weights[a] > weights[b]; });
+      for (std::size_t rank = 0; rank < (nearest_only ? 1 : 3); ++rank) {
+        const int j = corners[by_weight[rank]];
+        if (j < 0) continue;
+        int& holder = owner[static_cast<std::size_t>(j)];
+        if (holder == -2) holder = who;
+        if (holder == who) {
+          pinned[root] = 1;
+          break;
+        }
       }
     }
   };
-  if (carried[0] == 0) carry_feet(fine.fixed, -1);
-  for (std::size_t h = 0; h < fine.handles.size(); ++h) {
-    if (carried[h + 1] == 0) carry_feet(fine.handles[h], static_cast<int>(h));
+  for (const bool nearest_only : {true, false}) {
+    carry_feet(fine.fixed, -1, nearest_only);
+    for (std::size_t h = 0; h < fine.handles.size(); ++h) carry_feet(fine.handles[h], static_cast<int>(h), nearest_only);
   }
   EditConstraints base;
   base.handles.resize(fine.handles.size());
