@@ -181,27 +181,40 @@ TEST(Multiresolution, SomeVerticesNowAndTheRestLaterGiveTheWholeUpdate) {
   EXPECT_TRUE((exact_positions.array() == exact_expected.array()).all());
 }
 
+// The first of the relief bar's handle vertices (near its top) that the base does not have; −1 if none.
+int handle_vertex_off_the_base(const Relief& relief, const DetailEncoding& encoding) {
+  for (const int v : relief.constraints.handles[0]) {
+    if (encoding.base_vertex(v) < 0) return v;
+  }
+  return -1;
+}
+
 TEST(Multiresolution, AHandleSmallerThanABaseTriangleReachesTheBase) {
   const Relief relief = bar_with_relief();
   const auto operators = MeshOperators::of(relief.mesh, Resolution::Multiresolution, relief.mesh.vertex_count() / 20);
   const DetailEncoding& encoding = operators->multiresolution->encoding;
-  // A handle vertex near the top that the base does not have.
-  int lone = -1;
-  for (const int v : relief.constraints.handles[0]) {
-    if (encoding.base_vertex(v) < 0) {
-      lone = v;
-      break;
-    }
-  }
+  const int lone = handle_vertex_off_the_base(relief, encoding);
   ASSERT_GE(lone, 0);
   EditConstraints constraints{relief.constraints.fixed, {{lone}}, {}};
   const EditConstraints base = base_constraints(constraints, relief.mesh.triangles, encoding);
+  // It pins the corner of its foot triangle nearest its foot.
+  const auto corners = encoding.foot_corners(lone);
+  const auto weights = encoding.foot_weights(lone);
+  const auto nearest = static_cast<std::size_t>(std::max_element(weights.begin(), weights.end()) - weights.begin());
   ASSERT_EQ(base.handles.size(), 1u);
-  EXPECT_FALSE(base.handles[0].empty());
-  for (const int j : base.handles[0]) {
-    const auto corners = encoding.foot_corners(lone);
-    EXPECT_NE(std::find(corners.begin(), corners.end(), j), corners.end());
+  EXPECT_EQ(base.handles[0], std::vector<int>{corners[nearest]});
+  // With the nearest corner's fine vertex painted fixed, the handle takes another corner of its foot.
+  int nearest_fine = -1;
+  for (int v = 0; v < relief.mesh.vertex_count() && nearest_fine < 0; ++v) {
+    if (encoding.base_vertex(v) == corners[nearest]) nearest_fine = v;
   }
+  ASSERT_GE(nearest_fine, 0);
+  EditConstraints nearest_fixed{relief.constraints.fixed, {{lone}}, {}};
+  nearest_fixed.fixed.push_back(nearest_fine);
+  const EditConstraints elsewhere = base_constraints(nearest_fixed, relief.mesh.triangles, encoding);
+  ASSERT_EQ(elsewhere.handles[0].size(), 1u);
+  EXPECT_NE(elsewhere.handles[0][0], corners[nearest]);
+  EXPECT_NE(std::find(corners.begin(), corners.end(), elsewhere.handles[0][0]), corners.end());
   Deformer deformer(relief.mesh, constraints, operators, multiresolution(relief.mesh.vertex_count() / 20));
   EXPECT_EQ(deformer.operators().get(), operators.get()) << "the operators given are used, not built again";
   const HandleTransform pull = HandleTransform::about_pivot(Eigen::Vector3d::UnitZ(), Eigen::Vector3d::Zero(), 0.0, 1.0,
@@ -266,35 +279,6 @@ TEST(Multiresolution, EachPatchOfAFixedSetReachesTheBase) {
   Deformer(relief.mesh, constraints).deform(std::span(&relief.transform, 1), exact);
   const double exact_stretch = largest_stretch_at(relief.mesh, exact, lone);
   EXPECT_LT(largest_stretch_at(relief.mesh, on_base, lone), 1.5 * exact_stretch) << "exact: " << exact_stretch;
-}
-
-TEST(Multiresolution, AHandleWhoseNearestBaseVertexIsFixedTakesAnotherCornerOfItsFoot) {
-  const Relief relief = bar_with_relief();
-  const auto operators = MeshOperators::of(relief.mesh, Resolution::Multiresolution, relief.mesh.vertex_count() / 20);
-  const DetailEncoding& encoding = operators->multiresolution->encoding;
-  int lone = -1;
-  for (const int v : relief.constraints.handles[0]) {
-    if (encoding.base_vertex(v) < 0) {
-      lone = v;
-      break;
-    }
-  }
-  ASSERT_GE(lone, 0);
-  const auto corners = encoding.foot_corners(lone);
-  const auto weights = encoding.foot_weights(lone);
-  const auto nearest = static_cast<std::size_t>(std::max_element(weights.begin(), weights.end()) - weights.begin());
-  // The fine vertex of the nearest corner painted fixed.
-  int nearest_fine = -1;
-  for (int v = 0; v < relief.mesh.vertex_count() && nearest_fine < 0; ++v) {
-    if (encoding.base_vertex(v) == corners[nearest]) nearest_fine = v;
-  }
-  ASSERT_GE(nearest_fine, 0);
-  EditConstraints constraints{relief.constraints.fixed, {{lone}}, {}};
-  constraints.fixed.push_back(nearest_fine);
-  const EditConstraints base = base_constraints(constraints, relief.mesh.triangles, encoding);
-  ASSERT_EQ(base.handles[0].size(), 1u);
-  EXPECT_NE(base.handles[0][0], corners[nearest]);
-  EXPECT_NE(std::find(corners.begin(), corners.end(), base.handles[0][0]), corners.end());
 }
 
 TEST(Multiresolution, AHandleThatReachesNoBaseVertexOfItsOwnIsRefusedByName) {
