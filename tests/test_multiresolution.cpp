@@ -196,7 +196,7 @@ TEST(Multiresolution, AHandleSmallerThanABaseTriangleReachesTheBase) {
   const int lone = handle_vertex_off_the_base(relief, encoding);
   ASSERT_GE(lone, 0);
   EditConstraints constraints{relief.constraints.fixed, {{lone}}, {}};
-  const EditConstraints base = base_constraints(constraints, relief.mesh.triangles, encoding);
+  const EditConstraints base = base_constraints(constraints, relief.mesh.triangles, encoding).constraints;
   // It pins the corner of its foot triangle nearest its foot.
   const auto corners = encoding.foot_corners(lone);
   const auto weights = encoding.foot_weights(lone);
@@ -211,7 +211,7 @@ TEST(Multiresolution, AHandleSmallerThanABaseTriangleReachesTheBase) {
   ASSERT_GE(nearest_fine, 0);
   EditConstraints nearest_fixed{relief.constraints.fixed, {{lone}}, {}};
   nearest_fixed.fixed.push_back(nearest_fine);
-  const EditConstraints elsewhere = base_constraints(nearest_fixed, relief.mesh.triangles, encoding);
+  const EditConstraints elsewhere = base_constraints(nearest_fixed, relief.mesh.triangles, encoding).constraints;
   ASSERT_EQ(elsewhere.handles[0].size(), 1u);
   EXPECT_NE(elsewhere.handles[0][0], corners[nearest]);
   EXPECT_NE(std::find(corners.begin(), corners.end(), elsewhere.handles[0][0]), corners.end());
@@ -239,30 +239,42 @@ double largest_stretch_at(const Mesh& rest, const Eigen::MatrixXd& deformed, int
   return largest;
 }
 
-TEST(Multiresolution, EachPatchOfAFixedSetReachesTheBase) {
-  // The fixed set: the bar's foot, which the base has vertices of, and one vertex halfway up that
-  // the base does not have (a second patch, as a scan's other paws are).
-  const Relief relief = bar_with_relief();
-  const Eigen::Index base_size = relief.mesh.vertex_count() / 20;
-  const auto operators = MeshOperators::of(relief.mesh, Resolution::Multiresolution, base_size);
-  const DetailEncoding& encoding = operators->multiresolution->encoding;
+// The vertex halfway up the relief bar (along its longest extent) that the base does not have.
+int middle_vertex_off_the_base(const Relief& relief, const DetailEncoding& encoding) {
   Eigen::Index axis = 0;
   (relief.mesh.positions.colwise().maxCoeff() - relief.mesh.positions.colwise().minCoeff()).maxCoeff(&axis);
   const double middle = 0.5 * (relief.mesh.positions.col(axis).maxCoeff() + relief.mesh.positions.col(axis).minCoeff());
-  int lone = -1;
+  int found = -1;
   double closest = std::numeric_limits<double>::infinity();
   for (int v = 0; v < relief.mesh.vertex_count(); ++v) {
     const double off = std::abs(relief.mesh.positions(v, axis) - middle);
     if (encoding.base_vertex(v) < 0 && off < closest) {
       closest = off;
-      lone = v;
+      found = v;
     }
   }
+  return found;
+}
+
+// The relief bar on a base of a twentieth of its vertices, and its vertex halfway up that the base
+// does not have.
+class MiddleVertexOffTheBase : public ::testing::Test {
+ protected:
+  const Relief relief = bar_with_relief();
+  const Eigen::Index base_size = relief.mesh.vertex_count() / 20;
+  const std::shared_ptr<const MeshOperators> operators = MeshOperators::of(relief.mesh, Resolution::Multiresolution, base_size);
+  const DetailEncoding& encoding = operators->multiresolution->encoding;
+  const int lone = middle_vertex_off_the_base(relief, encoding);
+};
+
+TEST_F(MiddleVertexOffTheBase, EachPatchOfAFixedSetReachesTheBase) {
+  // The fixed set: the bar's foot, which the base has vertices of, and one vertex halfway up that
+  // the base does not have (a second patch, as a scan's other paws are).
   ASSERT_GE(lone, 0);
   EditConstraints constraints = relief.constraints;
   ASSERT_EQ(std::count(constraints.fixed.begin(), constraints.fixed.end(), lone), 0);
   constraints.fixed.push_back(lone);
-  const EditConstraints base = base_constraints(constraints, relief.mesh.triangles, encoding);
+  const EditConstraints base = base_constraints(constraints, relief.mesh.triangles, encoding).constraints;
   const auto corners = encoding.foot_corners(lone);
   const auto weights = encoding.foot_weights(lone);
   EXPECT_NEAR(weights[0] + weights[1] + weights[2], 1.0, 1e-12);
@@ -279,6 +291,32 @@ TEST(Multiresolution, EachPatchOfAFixedSetReachesTheBase) {
   Deformer(relief.mesh, constraints).deform(std::span(&relief.transform, 1), exact);
   const double exact_stretch = largest_stretch_at(relief.mesh, exact, lone);
   EXPECT_LT(largest_stretch_at(relief.mesh, on_base, lone), 1.5 * exact_stretch) << "exact: " << exact_stretch;
+}
+
+TEST_F(MiddleVertexOffTheBase, AFixedPatchThatNoBaseVertexCanHoldIsNamedInTheWarnings) {
+  // One fixed vertex halfway up, every vertex around it in the handle: each base vertex under it
+  // belongs to the handle, so the base cannot hold it, and the user is told.
+  ASSERT_GE(lone, 0);
+  EditConstraints constraints{relief.constraints.fixed, {{}}, {}};
+  constraints.fixed.push_back(lone);
+  std::vector<char> fixed(static_cast<std::size_t>(relief.mesh.vertex_count()), 0);
+  for (const int v : constraints.fixed) fixed[static_cast<std::size_t>(v)] = 1;
+  for (int v = 0; v < relief.mesh.vertex_count(); ++v) {
+    if (!fixed[static_cast<std::size_t>(v)]) constraints.handles[0].push_back(v);
+  }
+  const BaseConstraints carried = base_constraints(constraints, relief.mesh.triangles, encoding);
+  EXPECT_EQ(carried.unheld_vertices, (std::vector<std::size_t>{1, 0}));
+  for (const int corner : encoding.foot_corners(lone)) {
+    EXPECT_EQ(std::count(carried.constraints.fixed.begin(), carried.constraints.fixed.end(), corner), 0);
+  }
+  const Deformer deformer(relief.mesh, constraints, operators, multiresolution(base_size));
+  const auto warnings = deformer.warnings();
+  const std::string expected = "1 fixed vertex reaches no vertex of the base mesh (";
+  EXPECT_EQ(std::count_if(warnings.begin(), warnings.end(), [&](const std::string& line) { return line.find(expected) == 0; }), 1)
+      << ::testing::PrintToString(warnings);
+  // With the bar's own sets every patch holds a base vertex: no such warning.
+  const Deformer usual(relief.mesh, relief.constraints, operators, multiresolution(base_size));
+  for (const auto& line : usual.warnings()) EXPECT_EQ(line.find("no vertex of the base mesh"), std::string::npos) << line;
 }
 
 TEST(Multiresolution, AHandleThatReachesNoBaseVertexOfItsOwnIsRefusedByName) {

@@ -259,6 +259,7 @@ class Deformer {
   UpdateTimings last_update_;
   std::shared_ptr<const MeshOperators> operators_;
   std::vector<std::string> handle_warnings_;
+  std::vector<std::string> base_warnings_;  // what the base mesh cannot hold of the sets
   VertexPartition partition_;
   std::unique_ptr<DirichletSystem> system_;
   std::unique_ptr<class PoissonAssembler> assembler_;

@@ -154,12 +154,21 @@ class DetailEncoding {
   double largest_detail_ = 0.0;
 };
 
+/// A fine edit's sets carried to the base (base_constraints).
+struct BaseConstraints {
+  EditConstraints constraints;
+  /// For the fixed set, then each handle: how many of its fine vertices lie in patches that hold no
+  /// base vertex at all, every corner of their feet belonging to other sets. The base moves freely
+  /// under such a patch while its fine vertices stay where the set says.
+  std::vector<std::size_t> unheld_vertices;
+};
+
 /// A fine edit's sets on the base: a base vertex belongs to a set when its fine vertex does. Each
 /// connected patch of a set (over the fine triangles' edges) that holds none of the base's vertices
 /// (a patch smaller than a base triangle) takes, for each of its vertices, the corner of the foot
 /// triangle nearest the foot (of the largest weight), where no other set holds it; where other sets
 /// hold all of those, one of its feet's other corners. The region of interest is carried vertex by
 /// vertex, widened by the corners of the feet of its vertices that are not the base's.
-EditConstraints base_constraints(const EditConstraints& fine, const Eigen::MatrixXi& fine_triangles, const DetailEncoding& encoding);
+BaseConstraints base_constraints(const EditConstraints& fine, const Eigen::MatrixXi& fine_triangles, const DetailEncoding& encoding);
 
 }  // namespace hdeform

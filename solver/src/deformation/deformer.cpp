@@ -413,6 +413,7 @@ std::vector<std::string> Deformer::warnings() const {
   auto lines = operators_->inspection.warnings();
   lines.insert(lines.end(), partition_.warnings.begin(), partition_.warnings.end());
   lines.insert(lines.end(), handle_warnings_.begin(), handle_warnings_.end());
+  lines.insert(lines.end(), base_warnings_.begin(), base_warnings_.end());
   if (!operators_->exact_because.empty()) lines.push_back(operators_->exact_because);
   if (const auto& multiresolution = operators_->multiresolution) {
     // The collapses stop short of the size asked for where none is allowed any more: a small base

@@ -16,7 +16,9 @@ void Deformer::set_up_on_base(const ProgressCallback& progress) {
   const auto& multiresolution = *operators_->multiresolution;
   DeformerOptions base_options = options_;
   base_options.resolution = Resolution::Exact;
-  EditConstraints on_base = base_constraints(constraints_, rest_.triangles, multiresolution.encoding);
+  base_warnings_.clear();
+  BaseConstraints carried = base_constraints(constraints_, rest_.triangles, multiresolution.encoding);
+  EditConstraints& on_base = carried.constraints;
   // A handle that reaches no base vertex of its own: every base vertex under it already belongs
   // to the fixed set or an earlier handle (a small handle beside another set on a coarse base).
   for (std::size_t h = 0; h < on_base.handles.size(); ++h) {
@@ -27,6 +29,19 @@ void Deformer::set_up_on_base(const ProgressCallback& progress) {
                        " vertices) that the fixed vertices or another handle do not hold already: paint it larger, or solve on "
                        "a larger base or exactly");
     }
+  }
+  const std::string base_size = std::to_string(multiresolution.base.mesh.vertex_count());
+  for (std::size_t set = 0; set < carried.unheld_vertices.size(); ++set) {
+    const std::size_t count = carried.unheld_vertices[set];
+    if (count == 0) continue;
+    const bool one = count == 1;
+    const std::string which = set == 0 ? (one ? " fixed vertex" : " fixed vertices")
+                                       : (one ? " vertex" : " vertices") + std::string(" of handle ") + std::to_string(set);
+    base_warnings_.push_back(std::to_string(count) + which + (one ? " reaches" : " reach") +
+                             " no vertex of the base mesh (" + base_size + " vertices): " + (one ? "it lies in a patch" : "they lie in patches") +
+                             " smaller than a base triangle whose base vertices all belong to other sets. The base moves freely "
+                             "there while " + (one ? "it stays" : "they stay") + " where the set says, stretching the triangles "
+                             "between: paint " + (one ? "it" : "them") + " larger, or solve on a larger base or exactly");
   }
   base_ = std::make_unique<Deformer>(multiresolution.base.mesh, std::move(on_base), multiresolution.base_operators, base_options, progress);
   // The fine field: the base's, carried over the feet; exact at the fine constrained vertices.

@@ -555,7 +555,7 @@ std::array<double, 3> DetailEncoding::foot_weights(int fine_vertex) const {
   return {1.0 - row.wb - row.wc, row.wb, row.wc};
 }
 
-EditConstraints base_constraints(const EditConstraints& fine, const Eigen::MatrixXi& fine_triangles, const DetailEncoding& encoding) {
+BaseConstraints base_constraints(const EditConstraints& fine, const Eigen::MatrixXi& fine_triangles, const DetailEncoding& encoding) {
   const auto base_count = static_cast<std::size_t>(encoding.base_count());
   const auto fine_count = static_cast<std::size_t>(encoding.fine_count());
   // Owner of each base vertex among the fine sets: −2 none, −1 fixed, h ≥ 0 handle h.
@@ -628,7 +628,14 @@ EditConstraints base_constraints(const EditConstraints& fine, const Eigen::Matri
     carry_feet(fine.fixed, -1, nearest_only);
     for (std::size_t h = 0; h < fine.handles.size(); ++h) carry_feet(fine.handles[h], static_cast<int>(h), nearest_only);
   }
-  EditConstraints base;
+  BaseConstraints carried;
+  carried.unheld_vertices.assign(fine.handles.size() + 1, 0);
+  for (std::size_t v = 0; v < fine_count; ++v) {
+    if (set_of[v] == -2) continue;
+    const auto root = static_cast<std::size_t>(patches.find(static_cast<int>(v)));
+    if (!reaches_base[root] && !pinned[root]) ++carried.unheld_vertices[static_cast<std::size_t>(set_of[v] + 1)];
+  }
+  EditConstraints& base = carried.constraints;
   base.handles.resize(fine.handles.size());
   for (std::size_t j = 0; j < base_count; ++j) {
     if (owner[j] == -1) base.fixed.push_back(static_cast<int>(j));
@@ -649,7 +656,7 @@ EditConstraints base_constraints(const EditConstraints& fine, const Eigen::Matri
       if (inside[j]) base.region_of_interest.push_back(static_cast<int>(j));
     }
   }
-  return base;
+  return carried;
 }
 
 }  // namespace hdeform
