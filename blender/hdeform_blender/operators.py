@@ -58,6 +58,11 @@ def record_bind(obj, item):
     item.recorded = True
 
 
+def bound_message(obj, setup):
+    count = len(setup.handles)
+    return f"Bound {obj.name}: {count} handle{'' if count == 1 else 's'}"
+
+
 def finish_bind(context, obj, setup, deformer, record_all=False):
     """After the solver is built: the handles' Empties (made where missing), the rest frames of the
     handles that have none yet (or of all with `record_all`), the shape keys, and the result for
@@ -101,7 +106,7 @@ class HDEFORM_OT_bind(Operator):
         obj = active_mesh(context)
         setup = solver.Setup(obj, obj.hdeform)
         finish_bind(context, obj, setup, solver.build(setup))
-        self.report({'INFO'}, "Bound " + obj.name + ": " + str(len(setup.handles)) + " handle(s)")
+        self.report({'INFO'}, bound_message(obj, setup))
         return {'FINISHED'}
 
     def invoke(self, context, event):
@@ -141,7 +146,7 @@ class HDEFORM_OT_bind(Operator):
                 obj.hdeform["last_error"] = error
             self.report({'ERROR'}, error)
             return {'CANCELLED'}
-        self.report({'INFO'}, "Bound " + obj.name + ": " + str(len(self.job.setup.handles)) + " handle(s)")
+        self.report({'INFO'}, bound_message(obj, self.job.setup))
         return {'FINISHED'}
 
 

@@ -140,9 +140,12 @@ def build(setup, progress=None):
                                     resolution=setup.resolution, base_vertices=setup.base_vertices)
     except (ValueError, RuntimeError) as error:
         raise SetupError(str(error)) from error
-    refused = []
-    for finding in ("non-manifold edges", "non-manifold vertices", "unreferenced vertices"):
-        refused += [line for line in deformer.warnings if finding in line][:1]
+    found = deformer.inspection
+    refused = [f"{count} {one if count == 1 else many}" for count, one, many in (
+        (found["nonmanifold_edges"], "non-manifold edge (shared by more than two faces)", "non-manifold edges (shared by more than two faces)"),
+        (found["nonmanifold_vertices"], "non-manifold vertex (where separate fans of faces meet)",
+         "non-manifold vertices (where separate fans of faces meet)"),
+        (found["unreferenced_vertices"], "loose vertex (in no face)", "loose vertices (in no face)")) if count]
     if refused:
         raise SetupError("; ".join(refused) + " (Select > Select All by Trait > Non Manifold or Loose Geometry finds them; "
                          "Mesh > Clean Up > Delete Loose removes loose ones)")

@@ -9,6 +9,7 @@
 #include "batch_commands.h"
 #include "cli_support.h"
 #include "hdeform/constraint_io.h"
+#include "hdeform/counted.h"
 #include "hdeform/deformer.h"
 #include "hdeform/errors.h"
 #include "hdeform/mesh_io.h"
@@ -114,7 +115,7 @@ class EditCommand final : public BatchCommand {
         options.precision = *session.precision;
       }
       if (!session.applied.empty()) {
-        progress("replaying " + std::to_string(session.applied.size()) + " applied stage(s)");
+        progress("replaying " + counted(session.applied.size(), "applied stage", "applied stages"));
         Session applied_only = session;
         applied_only.current = {};
         loaded.mesh.positions = replay_session(applied_only, loaded.mesh, options, progress);
@@ -173,10 +174,10 @@ class EditCommand final : public BatchCommand {
     }
     progress.warn(warnings);
 
-    progress("deforming in " + std::to_string(steps_) + (steps_ == 1 ? " step" : " steps") +
+    progress("deforming in " + counted(static_cast<std::size_t>(steps_), "step", "steps") +
              (refine_iterations == 0 ? std::string()
               : refine_.until_converged() ? ", refined until converged"
-                                          : ", " + std::to_string(refine_iterations) + " refinement iterations each"));
+                                          : ", " + counted(static_cast<std::size_t>(refine_iterations), "refinement iteration", "refinement iterations") + " each"));
     Eigen::MatrixXd positions = deformer.rest().positions;
     std::vector<HandleTransform> step_transforms(transforms.size());
     std::vector<double> step_ms;

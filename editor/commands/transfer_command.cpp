@@ -7,6 +7,7 @@
 
 #include "batch_commands.h"
 #include "cli_support.h"
+#include "hdeform/counted.h"
 #include "hdeform/errors.h"
 #include "hdeform/mesh_io.h"
 #include "transfer_support.h"
@@ -57,7 +58,7 @@ class TransferCommand final : public BatchCommand {
 
     // Every input is read and checked before anything is written.
     TransferInputs loaded = load_transfer_inputs(arguments_, progress);
-    progress("reading " + std::to_string(pose_paths_.size()) + " pose(s)");
+    progress("reading " + counted(pose_paths_.size(), "pose", "poses"));
     std::vector<Eigen::MatrixXd> poses;
     for (const auto& path : pose_paths_) {
       Mesh pose = read_mesh(path);

@@ -1,5 +1,6 @@
 // The editor window: the side panel (controls, pose fields, live figures, status) and the dialogs.
 #include "gui/editor_app_parts.h"
+#include "hdeform/counted.h"
 
 #include <nlohmann/json.hpp>
 
@@ -104,7 +105,7 @@ void EditorApp::draw_controls() {
                        ImVec2(14, 14));
     ImGui::SameLine();
     const std::size_t size = document_->handle_size(h);
-    const std::string label = "Handle " + std::to_string(h + 1) + " (" + std::to_string(size) + (size == 1 ? " vertex)" : " vertices)");
+    const std::string label = "Handle " + std::to_string(h + 1) + " (" + counted(size, "vertex", "vertices") + ")";
     if (ImGui::Selectable(label.c_str(), document_->active_handle() == h)) document_->set_active_handle(h);
   }
   if (ImGui::Button("New handle (N)")) {

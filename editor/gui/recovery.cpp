@@ -8,6 +8,7 @@
 #include <iostream>
 
 #include "hdeform/atomic_file.h"
+#include "hdeform/counted.h"
 
 namespace hdeform::cli {
 
@@ -23,8 +24,6 @@ std::filesystem::path default_recovery_path() {
 }
 
 namespace {
-
-std::string counted(std::size_t count, const char* one, const char* many) { return std::to_string(count) + " " + (count == 1 ? one : many); }
 
 std::tm local_time(std::filesystem::file_time_type time) {
   const auto system = std::chrono::time_point_cast<std::chrono::system_clock::duration>(std::chrono::file_clock::to_sys(time));
@@ -44,7 +43,7 @@ std::string describe_session(const Session& session) {
     parts.push_back((stage.handles.size() == 1 ? std::string("1 handle") : "handle " + std::to_string(h + 1)) + " (" +
                     counted(handle.vertices.size(), "vertex", "vertices") + (handle.transform.is_identity() ? ", at rest)" : ", moved)"));
   }
-  if (stage.handles.size() > 3) parts.push_back(std::to_string(stage.handles.size() - 3) + " more handles");
+  if (stage.handles.size() > 3) parts.push_back(counted(stage.handles.size() - 3, "more handle", "more handles"));
   if (stage.handles.empty()) parts.emplace_back("no handle");
   parts.push_back(counted(stage.fixed.size(), "fixed vertex", "fixed vertices"));
   if (!stage.region_of_interest.empty()) parts.push_back("a region of interest of " + counted(stage.region_of_interest.size(), "vertex", "vertices"));

@@ -9,6 +9,7 @@
 #include "commands/cli_support.h"
 #include "gui/transfer_view_parts.h"
 #include "gui/widgets.h"
+#include "hdeform/counted.h"
 
 namespace hdeform::cli {
 
@@ -152,7 +153,7 @@ void TransferView::draw_panel(const DialogKeys& keys) {
 
 std::string TransferView::unsaved_markers() const {
   if (!sides_[0] || markers_.version() == saved_markers_version_) return "";
-  return std::to_string(markers_.size()) + " marker pair" + (markers_.size() == 1 ? "" : "s") +
+  return counted(markers_.size(), "marker pair", "marker pairs") +
          (markers_path_.empty() || !std::filesystem::exists(markers_path_) ? " (never saved)"
                                                                           : " (changed since " + std::filesystem::path(markers_path_).filename().string() + ")");
 }

@@ -16,6 +16,7 @@
 
 #include "commands/cli_support.h"
 #include "gui/widgets.h"
+#include "hdeform/counted.h"
 #include "hdeform/engine/geometry_exchange.h"
 #include "hdeform/engine/mesh_renderer.h"
 #include "hdeform/errors.h"
@@ -228,7 +229,7 @@ void TransferView::apply_restored(const TransferState& state) {
   top_n_ = state.top_n;
   mismatch_threshold_ = static_cast<float>(state.mismatch_threshold);
   publish_markers();
-  status_ = "Restored " + std::to_string(markers_.size()) + " marker pairs";
+  status_ = "Restored " + counted(markers_.size(), "marker pair", "marker pairs");
   print_json_line({{"event", "transfer restored"}, {"markers", markers_.size()}});
 }
 
@@ -264,7 +265,7 @@ void TransferView::poll() {
     if (computed) {
       computed_ = std::move(computed);
       computed_markers_version_ = computed_->markers_version;
-      status_ = "Transferred " + std::to_string(computed_->results.size()) + " pose(s)";
+      status_ = "Transferred " + counted(computed_->results.size(), "pose", "poses");
       nlohmann::json setup = {{"total", computed_->setup.total_ms},
                               {"correspondence", computed_->setup.source_coordinates_ms + computed_->setup.target_coordinates_ms + computed_->setup.matching_ms}};
       print_json_line({{"event", "transfer computed"},
@@ -546,7 +547,7 @@ void TransferView::start_compute() {
   options.method = method_ == 0 ? TransferMethod::Correspondence : TransferMethod::Interpolation;
   options.top_n = method_ == 0 ? top_n_ : 0;
   options.mismatch_threshold = mismatch_threshold_;
-  compute_.start(std::string("Transferring ") + std::to_string(poses_.size()) + " pose(s) by " + std::string(to_string(options.method)),
+  compute_.start("Transferring " + counted(poses_.size(), "pose", "poses") + " by " + std::string(to_string(options.method)),
                  [options, source = sides_[0]->rest, target = sides_[1]->rest, markers = markers_.pairs(), poses = poses_, version = markers_.version()] {
     DeformationTransfer transfer(source, target, markers, options);
     auto computed = std::make_unique<Computed>();
@@ -573,7 +574,7 @@ void TransferView::save_markers(const std::string& path) {
     saved_markers_version_ = markers_.version();
     markers_path_ = path;
     copy_text(markers_file_, sizeof markers_file_, path);
-    status_ = "Saved " + std::to_string(markers_.size()) + " marker pairs to " + path;
+    status_ = "Saved " + counted(markers_.size(), "marker pair", "marker pairs") + " to " + path;
     error_.clear();
     print_json_line({{"event", "markers saved"}, {"path", path}, {"count", markers_.size()}, {"source_column", source_column_}});
   } catch (const std::exception& error) {
@@ -590,7 +591,7 @@ void TransferView::export_sequence(const std::string& folder) {
     for (std::size_t p = 0; p < computed_->results.size(); ++p) {
       write_obj(std::filesystem::path(folder) / (pose_names_[p] + ".obj"), Mesh{computed_->results[p], sides_[1]->rest.triangles});
     }
-    status_ = "Wrote " + std::to_string(computed_->results.size()) + " meshes to " + folder;
+    status_ = "Wrote " + counted(computed_->results.size(), "mesh", "meshes") + " to " + folder;
     print_json_line({{"event", "sequence exported"}, {"folder", folder}, {"count", computed_->results.size()}});
   } catch (const std::exception& error) {
     error_ = error.what();

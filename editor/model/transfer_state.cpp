@@ -6,6 +6,7 @@
 #include <sstream>
 
 #include "hdeform/atomic_file.h"
+#include "hdeform/counted.h"
 #include "hdeform/errors.h"
 
 namespace hdeform::cli {
@@ -96,9 +97,9 @@ std::string describe_transfer_state(const TransferState& state) {
   const auto name = [](const std::string& path) { return std::filesystem::path(path).filename().string(); };
   std::string text = name(state.source_rest) + " -> " + name(state.target);  // ASCII: the editor's font has no arrow
   if (!state.poses.empty()) {
-    text += ", " + std::to_string(state.poses.size()) + (state.poses.size() == 1 ? " pose" : " poses");
+    text += ", " + counted(state.poses.size(), "pose", "poses");
   }
-  text += ", " + std::to_string(state.markers.size()) + (state.markers.size() == 1 ? " marker pair" : " marker pairs");
+  text += ", " + counted(state.markers.size(), "marker pair", "marker pairs");
   return text;
 }
 

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "hdeform/constraints.h"
+#include "hdeform/counted.h"
 #include "hdeform/deformer.h"
 #include "hdeform/dirichlet_system.h"
 #include "hdeform/errors.h"
@@ -180,7 +181,7 @@ std::vector<HandleTransform> transforms_argument(const py::handle& object, std::
     for (const auto item : object.cast<py::sequence>()) transforms.push_back(transform_argument(item, "transforms[" + std::to_string(k++) + "]"));
   }
   if (transforms.size() != handles) {
-    throw py::value_error(std::to_string(transforms.size()) + " transform(s) for " + std::to_string(handles) + " handle(s)");
+    throw py::value_error(counted(transforms.size(), "transform", "transforms") + " for " + counted(handles, "handle", "handles"));
   }
   return transforms;
 }
@@ -271,6 +272,19 @@ class PyDeformer {
 
   py::array field() const { return owning_array(Eigen::VectorXd(deformer_->field())); }
   std::vector<std::string> warnings() const { return deformer_->warnings(); }
+  py::dict inspection() const {
+    const MeshInspection& found = deformer_->inspection();
+    py::dict result;
+    result["degenerate_triangles"] = found.degenerate_triangles;
+    result["ignored_triangles"] = found.ignored_triangles;
+    result["nonmanifold_edges"] = found.nonmanifold_edges;
+    result["nonmanifold_vertices"] = found.nonmanifold_vertices;
+    result["duplicated_vertices"] = found.duplicated_vertices;
+    result["boundary_edges"] = found.boundary_edges;
+    result["components"] = found.components;
+    result["unreferenced_vertices"] = found.unreferenced_vertices;
+    return result;
+  }
   double refine_tolerance() const { return deformer_->refinement_options().tolerance; }
   void set_refine_tolerance(double tolerance) {
     if (!(tolerance > 0.0 && tolerance < 1.0)) throw py::value_error("refine_tolerance must lie between 0 and 1");
@@ -651,6 +665,10 @@ Returns the (n, 3) float64 positions. deform(T, refine=0) then refine() until
 refinement['converged'] gives the same bits as deform(T, refine='auto').)doc")
       .def_property_readonly("field", &PyDeformer::field, "The harmonic field h, an (n,) float64 array: 1 on the handles, 0 on the fixed vertices")
       .def_property_readonly("warnings", &PyDeformer::warnings, "Findings about the mesh and the handles (list of str), as `hdeform edit` reports them")
+      .def_property_readonly("inspection", &PyDeformer::inspection,
+                             "What the mesh's inspection counted, a dict of int: degenerate_triangles (zero-area or needle), "
+                             "ignored_triangles (duplicated, or with a repeated vertex), nonmanifold_edges, nonmanifold_vertices, "
+                             "duplicated_vertices, boundary_edges, components, unreferenced_vertices (the warnings' lines say the same in words)")
       .def_property_readonly("refinement", &PyDeformer::refinement,
                              "The last edit's refinement, a dict: iterations (int), energy and unrefined_energy (float, None "
                              "before any iteration), converged, settled (bool), largest_step (float, a fraction of the diagonal)")

@@ -45,6 +45,6 @@ refused("a handle without a sink", positions + second, faces + [tuple(v + offset
 # A fin: a third face on an inner edge of the grid (between vertices 8 and 9).
 fin_positions = positions + [(1.5 / 6, 1.0 / 6, 0.3)]
 refused("non-manifold", fin_positions, faces + [(8, 9, len(positions))], {"hdeform_fixed": bottom, "hdeform_handle_1": top},
-        ["non-manifold"])
-refused("a loose vertex", positions + [(3.0, 3.0, 3.0)], faces, {"hdeform_fixed": bottom, "hdeform_handle_1": top}, ["unreferenced", "Loose"])
+        ["1 non-manifold edge (shared"])
+refused("a loose vertex", positions + [(3.0, 3.0, 3.0)], faces, {"hdeform_fixed": bottom, "hdeform_handle_1": top}, ["1 loose vertex (in no face)", "Loose"])
 support.passed("every bad set-up is refused with its reason, nothing changed")

@@ -6,6 +6,7 @@
 
 #include <string>
 
+#include "hdeform/counted.h"
 #include "hdeform/deformer.h"
 #include "hdeform/errors.h"
 #include "hdeform/trace.h"
@@ -24,8 +25,7 @@ void Deformer::set_up_on_base(const ProgressCallback& progress) {
   for (std::size_t h = 0; h < on_base.handles.size(); ++h) {
     if (on_base.handles[h].empty() && !constraints_.handles[h].empty()) {
       const std::size_t painted = constraints_.handles[h].size();
-      throw InputError("handle " + std::to_string(h + 1) + " (" + std::to_string(painted) + (painted == 1 ? " vertex" : " vertices") +
-                       ") reaches no vertex of the base mesh (" + std::to_string(multiresolution.base.mesh.vertex_count()) +
+      throw InputError("handle " + std::to_string(h + 1) + " (" + counted(painted, "vertex", "vertices") + ") reaches no vertex of the base mesh (" + std::to_string(multiresolution.base.mesh.vertex_count()) +
                        " vertices) that the fixed vertices or another handle do not hold already: paint it larger, or solve on "
                        "a larger base or exactly");
     }
@@ -35,9 +35,9 @@ void Deformer::set_up_on_base(const ProgressCallback& progress) {
     const std::size_t count = carried.unheld_vertices[set];
     if (count == 0) continue;
     const bool one = count == 1;
-    const std::string which = set == 0 ? (one ? " fixed vertex" : " fixed vertices")
-                                       : (one ? " vertex" : " vertices") + std::string(" of handle ") + std::to_string(set);
-    base_warnings_.push_back(std::to_string(count) + which + (one ? " reaches" : " reach") +
+    const std::string which = set == 0 ? counted(count, "fixed vertex", "fixed vertices")
+                                       : counted(count, "vertex", "vertices") + " of handle " + std::to_string(set);
+    base_warnings_.push_back(which + (one ? " reaches" : " reach") +
                              " no vertex of the base mesh (" + base_size + " vertices): " + (one ? "it lies in a patch" : "they lie in patches") +
                              " smaller than a base triangle whose base vertices all belong to other sets. The base moves freely "
                              "there while " + (one ? "it stays" : "they stay") + " where the set says, stretching the triangles "

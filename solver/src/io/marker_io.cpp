@@ -4,6 +4,7 @@
 #include <unordered_map>
 
 #include "hdeform/atomic_file.h"
+#include "hdeform/counted.h"
 #include "hdeform/errors.h"
 #include "text_scan.h"
 
@@ -28,7 +29,7 @@ MarkerPairs read_marker_pairs(const std::filesystem::path& path, SourceColumn so
     if (tokens.empty()) return;
     if (tokens.size() != 2) {
       fail_at(path, line, "expected two vertex indices (" + std::string(column_names[0]) + " " + column_names[1] + "), found " +
-                              std::to_string(tokens.size()) + (tokens.size() == 1 ? " value" : " values"));
+                              counted(tokens.size(), "value", "values"));
     }
     int pair[2] = {0, 0};
     for (int column = 0; column < 2; ++column) {

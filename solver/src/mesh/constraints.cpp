@@ -3,6 +3,7 @@
 #include <algorithm>
 
 #include "disjoint_sets.h"
+#include "hdeform/counted.h"
 #include "hdeform/errors.h"
 
 namespace hdeform {
@@ -120,13 +121,15 @@ VertexPartition partition_vertices(const Mesh& mesh, const CotangentWeights& wei
   }
 
   if (partition.unreferenced_vertices > 0) {
-    partition.warnings.push_back(std::to_string(partition.unreferenced_vertices) +
-                                 " unreferenced vertices (in no triangle) stay in place");
+    partition.warnings.push_back(counted(partition.unreferenced_vertices, "unreferenced vertex (in no triangle) stays",
+                                         "unreferenced vertices (in no triangle) stay") +
+                                 " in place");
   }
   if (partition.stray_components > 0) {
-    partition.warnings.push_back(std::to_string(partition.stray_components) + " part(s) of the mesh (" +
-                                 std::to_string(partition.stray_vertices) +
-                                 " vertices) have no fixed or handle vertex and stay in place");
+    const bool one = partition.stray_components == 1;
+    partition.warnings.push_back(counted(partition.stray_components, "part", "parts") + " of the mesh (" +
+                                 counted(partition.stray_vertices, "vertex", "vertices") +
+                                 (one ? ") has no fixed or handle vertex and stays in place" : ") have no fixed or handle vertex and stay in place"));
   }
   return partition;
 }

@@ -10,6 +10,7 @@
 #include <tbb/parallel_invoke.h>
 #include <tbb/parallel_sort.h>
 
+#include "hdeform/counted.h"
 #include "disjoint_sets.h"
 #include "edge_counts.h"
 
@@ -18,22 +19,26 @@ namespace hdeform {
 std::vector<std::string> MeshInspection::warnings() const {
   std::vector<std::string> lines;
   if (degenerate_triangles > 0) {
-    lines.push_back(std::to_string(degenerate_triangles) + " zero-area or needle triangles (their weights are bounded)");
+    lines.push_back(counted(degenerate_triangles, "zero-area or needle triangle", "zero-area or needle triangles") +
+                    " (their weights are bounded)");
   }
   if (ignored_triangles > 0) {
-    lines.push_back(std::to_string(ignored_triangles) +
-                    " duplicated triangles or triangles with a repeated vertex (left out of the operator)");
+    lines.push_back(counted(ignored_triangles, "duplicated triangle or triangle", "duplicated triangles or triangles") +
+                    " with a repeated vertex (left out of the operator)");
   }
-  if (nonmanifold_edges > 0) lines.push_back(std::to_string(nonmanifold_edges) + " non-manifold edges (shared by more than two triangles)");
+  if (nonmanifold_edges > 0) {
+    lines.push_back(counted(nonmanifold_edges, "non-manifold edge", "non-manifold edges") + " (shared by more than two triangles)");
+  }
   if (nonmanifold_vertices > 0) {
-    lines.push_back(std::to_string(nonmanifold_vertices) + " non-manifold vertices (where separate fans of triangles meet)");
+    lines.push_back(counted(nonmanifold_vertices, "non-manifold vertex", "non-manifold vertices") +
+                    " (where separate fans of triangles meet)");
   }
   if (duplicated_vertices > 0) {
-    lines.push_back(std::to_string(duplicated_vertices) +
-                    " duplicated vertices (at the same position as another vertex: the mesh is not joined there)");
+    lines.push_back(counted(duplicated_vertices, "duplicated vertex", "duplicated vertices") +
+                    " (at the same position as another vertex: the mesh is not joined there)");
   }
   if (components > 1) lines.push_back(std::to_string(components) + " connected components");
-  if (unreferenced_vertices > 0) lines.push_back(std::to_string(unreferenced_vertices) + " unreferenced vertices (in no triangle)");
+  if (unreferenced_vertices > 0) lines.push_back(counted(unreferenced_vertices, "unreferenced vertex", "unreferenced vertices") + " (in no triangle)");
   return lines;
 }
 

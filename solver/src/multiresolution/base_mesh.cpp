@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "edge_collapse.h"
+#include "hdeform/counted.h"
 #include "hdeform/errors.h"
 #include "hdeform/multiresolution.h"
 #include "hdeform/trace.h"
@@ -23,9 +24,10 @@ bool MeshTopology::same_as(const MeshTopology& other) const {
 }
 
 std::string MeshTopology::describe() const {
-  return std::to_string(vertices) + " vertices, Euler characteristic " + std::to_string(euler_characteristic()) + ", " +
-         std::to_string(components) + " components, " + std::to_string(boundary_edges) + " boundary edges, " +
-         std::to_string(nonmanifold_edges) + " non-manifold edges";
+  return counted(static_cast<std::size_t>(vertices), "vertex", "vertices") + ", Euler characteristic " +
+         std::to_string(euler_characteristic()) + ", " + counted(static_cast<std::size_t>(components), "component", "components") + ", " +
+         counted(static_cast<std::size_t>(boundary_edges), "boundary edge", "boundary edges") + ", " +
+         counted(static_cast<std::size_t>(nonmanifold_edges), "non-manifold edge", "non-manifold edges");
 }
 
 MeshTopology mesh_topology(const Mesh& mesh) {

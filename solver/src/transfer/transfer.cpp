@@ -11,6 +11,7 @@
 
 #include "mesh/disjoint_sets.h"
 #include "hdeform/constraints.h"
+#include "hdeform/counted.h"
 #include "hdeform/deformation_field.h"
 #include "hdeform/deformation_gradient.h"
 #include "hdeform/dirichlet_system.h"
@@ -202,8 +203,9 @@ DeformationTransfer::DeformationTransfer(Mesh source_rest, Mesh target_rest, Mar
   reconstruction_ = std::make_unique<Reconstruction>();
   reconstruction_->system = factor(target_rest_, *target_operators_, pins, reconstruction_->partition);
   if (reconstruction_->partition.stray_components > 0) {
-    warnings_.push_back(std::to_string(reconstruction_->partition.stray_components) +
-                        " part(s) of the target hold no marker and stay where they are");
+    const std::size_t stray = reconstruction_->partition.stray_components;
+    warnings_.push_back(counted(stray, "part", "parts") + " of the target" +
+                        (stray == 1 ? " holds no marker and stays where it is" : " hold no marker and stay where they are"));
   }
   reconstruction_->assembler = std::make_unique<PoissonAssembler>(target_rest_, target_weights, *reconstruction_->system);
   target_maps_.assign(static_cast<std::size_t>(target_rest_.triangle_count()), Eigen::Matrix3d::Identity());
@@ -239,8 +241,10 @@ void DeformationTransfer::setup_correspondence(const Operators& source_operators
     VertexPartition partition;
     const auto system = factor(mesh, operators, fixed, partition);
     if (partition.stray_components > 0) {
-      warnings_.push_back(std::to_string(partition.stray_components) + " part(s) of the " + which +
-                          " hold no marker: their triangles all have the same coordinate");
+      const bool one = partition.stray_components == 1;
+      warnings_.push_back(counted(partition.stray_components, "part", "parts") + " of the " + which +
+                          (one ? " holds no marker: its triangles all have the same coordinate"
+                               : " hold no marker: their triangles all have the same coordinate"));
     }
     return VertexCoordinates(*system, partition, markers);
   };
@@ -331,7 +335,9 @@ void DeformationTransfer::setup_interpolation() {
     }
   }
   if (fields.partition.stray_components > 0) {
-    warnings_.push_back(std::to_string(fields.partition.stray_components) + " part(s) of the target hold no marker and are not deformed");
+    const bool one = fields.partition.stray_components == 1;
+    warnings_.push_back(counted(fields.partition.stray_components, "part", "parts") + " of the target" +
+                        (one ? " holds no marker and is not deformed" : " hold no marker and are not deformed"));
   }
   fields.values.resize(target_rest_.vertex_count(), kInterpolatedComponents);
   fields.components.resize(target_rest_.vertex_count(), kInterpolatedComponents);
