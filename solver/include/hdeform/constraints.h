@@ -19,6 +19,8 @@ struct EditConstraints {
   std::vector<int> fixed;
   std::vector<std::vector<int>> handles;  ///< one vertex list per handle
   std::vector<int> region_of_interest;    ///< empty: the whole mesh; vertices outside it are fixed
+
+  friend bool operator==(const EditConstraints&, const EditConstraints&) = default;
 };
 
 /// The classes that are solved with: the ROI applied and every vertex that no constraint reaches
