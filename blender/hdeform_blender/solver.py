@@ -147,8 +147,8 @@ def build(setup, progress=None):
          "non-manifold vertices (where separate fans of faces meet)"),
         (found["unreferenced_vertices"], "loose vertex (in no face)", "loose vertices (in no face)")) if count]
     if refused:
-        raise SetupError("; ".join(refused) + " (Select > Select All by Trait > Non Manifold or Loose Geometry finds them; "
-                         "Mesh > Clean Up > Delete Loose removes loose ones)")
+        raise SetupError("; ".join(refused) + ". In Edit Mode, Select > Select All by Trait > Non Manifold (or Loose "
+                         "Geometry) selects them; Mesh > Clean Up > Delete Loose removes loose vertices")
     return deformer
 
 
