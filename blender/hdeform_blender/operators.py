@@ -58,9 +58,15 @@ def record_bind(obj, item):
     item.recorded = True
 
 
-def bound_message(obj, setup):
+def report_bound(operator, obj, setup, deformer):
+    """The bind in Blender's status bar and Info log; with the solver's notes, as a warning."""
     count = len(setup.handles)
-    return f"Bound {obj.name}: {count} handle{'' if count == 1 else 's'}"
+    message = f"Bound {obj.name}: {count} handle{'' if count == 1 else 's'}"
+    notes = deformer.warnings
+    if notes:
+        operator.report({'WARNING'}, message + ". " + "; ".join(notes))
+    else:
+        operator.report({'INFO'}, message)
 
 
 def finish_bind(context, obj, setup, deformer, record_all=False):
@@ -105,8 +111,9 @@ class HDEFORM_OT_bind(Operator):
     def execute(self, context):
         obj = active_mesh(context)
         setup = solver.Setup(obj, obj.hdeform)
-        finish_bind(context, obj, setup, solver.build(setup))
-        self.report({'INFO'}, bound_message(obj, setup))
+        deformer = solver.build(setup)
+        finish_bind(context, obj, setup, deformer)
+        report_bound(self, obj, setup, deformer)
         return {'FINISHED'}
 
     def invoke(self, context, event):
@@ -146,7 +153,7 @@ class HDEFORM_OT_bind(Operator):
                 obj.hdeform["last_error"] = error
             self.report({'ERROR'}, error)
             return {'CANCELLED'}
-        self.report({'INFO'}, bound_message(obj, self.job.setup))
+        report_bound(self, obj, self.job.setup, self.job.deformer)
         return {'FINISHED'}
 
 

@@ -82,9 +82,12 @@ class VIEW3D_PT_hdeform(Panel):
                 site = "Solves on a base of %d of its %d vertices" % (bound_object.solved_vertices, bound_object.vertices)
             else:
                 site = "Solves on all its %d vertices" % bound_object.vertices
-            # Narrower than the other lines: the numbers are long words, and the first line has an icon.
+            # Narrower than the other lines: the numbers are long words, and the lines have icons.
             for k, line in enumerate(wrap(site, 22)):
                 status.label(text=line, icon='MESH_DATA' if k == 0 else 'BLANK1')
+            for note in bound_object.warnings:
+                for k, line in enumerate(wrap(note, 20)):
+                    status.label(text=line, icon='ERROR' if k == 0 else 'BLANK1')
             status.label(text="Update: %.1f ms" % bound_object.update_ms)
             if settings.refine:
                 status.label(text="%d iterations, %s" % (bound_object.iterations, "refining..." if bound_object.refining else "settled"))

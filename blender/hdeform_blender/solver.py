@@ -170,9 +170,11 @@ class Bound:
         self.iterations = 0
         self.energy = 0.0
         self.unrefined_energy = 0.0
-        # Where it solves, for the panel (read once: the worker may be inside the Deformer).
+        # Where it solves and what the solver noted (parts left in place, a base that cannot hold a
+        # set, ...), for the panel: read once, as the worker may be inside the Deformer.
         self.solved_vertices = deformer.solved_vertex_count
         self.vertices = deformer.vertex_count
+        self.warnings = list(deformer.warnings)
         self.key_buffer = None  # the shape key's coordinates as foreach_set takes them, kept between writes
 
     def key_coordinates(self, positions):

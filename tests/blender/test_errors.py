@@ -1,6 +1,7 @@
 """Each set-up the add-on cannot solve is refused with an error report that says why, and leaves
 the mesh as it was: no fixed group, an empty handle group, a handle with no fixed vertex in its
-part of the mesh, non-manifold edges, a loose vertex."""
+part of the mesh, non-manifold edges, a loose vertex. One it can solve with a note binds, and the
+note reaches the panel."""
 import numpy as np
 
 import bpy
@@ -48,3 +49,19 @@ refused("non-manifold", fin_positions, faces + [(8, 9, len(positions))], {"hdefo
         ["1 non-manifold edge (shared"])
 refused("a loose vertex", positions + [(3.0, 3.0, 3.0)], faces, {"hdeform_fixed": bottom, "hdeform_handle_1": top}, ["1 loose vertex (in no face)", "Loose"])
 support.passed("every bad set-up is refused with its reason, nothing changed")
+
+# Two grids side by side, the second in no group: bound, and the panel says it stays in place.
+support.empty_scene()
+obj = support.mesh_object("a part left alone", positions + second, faces + [tuple(v + offset for v in f) for f in faces])
+support.assign(obj, "hdeform_fixed", bottom)
+support.assign(obj, "hdeform_handle_1", top)
+assert bpy.ops.hdeform.bind() == {'FINISHED'}
+from hdeform_blender import solver  # noqa: E402 - the add-on is enabled by now
+note = f"1 part of the mesh ({len(second)} vertices) has no fixed or handle vertex and stays in place"
+assert note in solver.bound(obj).warnings, f"the panel's notes: {solver.bound(obj).warnings}"
+obj.hdeform.handles[0].empty.location.z += 0.3
+assert bpy.ops.hdeform.update(wait=True) == {'FINISHED'}
+moved = support.shape_key(obj)
+assert np.abs(moved[top, 2] - 0.3).max() < 1e-6, "the handle did not follow its Empty"
+assert np.array_equal(moved[offset:], np.asarray(second, dtype=np.float32)), "the part in no group moved"
+support.passed("a part in no group is noted and stays")
