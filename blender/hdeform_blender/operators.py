@@ -59,7 +59,7 @@ def record_bind(obj, item):
 
 
 def report_bound(operator, obj, setup, deformer):
-    """The bind in Blender's status bar and Info log; with the solver's notes, as a warning."""
+    """The bind reported in Blender's way (the Info log lists it); with the solver's notes, as a warning."""
     count = len(setup.handles)
     message = f"Bound {obj.name}: {count} handle{'' if count == 1 else 's'}"
     notes = deformer.warnings
