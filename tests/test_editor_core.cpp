@@ -531,6 +531,11 @@ TEST(Recovery, ThePromptSaysWhatTheFileHoldsAndWhen) {
   session.applied.push_back(session.current);
   EXPECT_EQ(cli::describe_session(session),
             "handle 1 (1 vertex, moved), handle 2 (2 vertices, at rest), 3 fixed vertices, a region of interest of 7 vertices, 1 applied stage");
+  cli::Session many = session;  // beyond three handles, the rest counted
+  many.current.handles.push_back({{8}, HandleTransform{}});
+  many.current.handles.push_back({{9}, HandleTransform{}});
+  EXPECT_TRUE(cli::describe_session(many).find("handle 3 (1 vertex, at rest), 1 more handle, 3 fixed vertices") != std::string::npos)
+      << cli::describe_session(many);
 
   const auto now = std::filesystem::file_time_type::clock::now();
   EXPECT_TRUE(cli::describe_age(now - std::chrono::seconds(20), now).ends_with(", less than a minute ago"));

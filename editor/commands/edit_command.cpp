@@ -177,7 +177,8 @@ class EditCommand final : public BatchCommand {
     progress("deforming in " + counted(static_cast<std::size_t>(steps_), "step", "steps") +
              (refine_iterations == 0 ? std::string()
               : refine_.until_converged() ? ", refined until converged"
-                                          : ", " + counted(static_cast<std::size_t>(refine_iterations), "refinement iteration", "refinement iterations") + " each"));
+                                          : ", " + counted(static_cast<std::size_t>(refine_iterations), "refinement iteration",
+                                                           "refinement iterations") + " each"));
     Eigen::MatrixXd positions = deformer.rest().positions;
     std::vector<HandleTransform> step_transforms(transforms.size());
     std::vector<double> step_ms;

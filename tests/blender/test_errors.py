@@ -47,7 +47,8 @@ refused("a handle without a sink", positions + second, faces + [tuple(v + offset
 fin_positions = positions + [(1.5 / 6, 1.0 / 6, 0.3)]
 refused("non-manifold", fin_positions, faces + [(8, 9, len(positions))], {"hdeform_fixed": bottom, "hdeform_handle_1": top},
         ["1 non-manifold edge (shared"])
-refused("a loose vertex", positions + [(3.0, 3.0, 3.0)], faces, {"hdeform_fixed": bottom, "hdeform_handle_1": top}, ["1 loose vertex (in no face)", "Loose"])
+refused("a loose vertex", positions + [(3.0, 3.0, 3.0)], faces, {"hdeform_fixed": bottom, "hdeform_handle_1": top},
+        ["1 loose vertex (in no face)", "Loose"])
 support.passed("every bad set-up is refused with its reason, nothing changed")
 
 # Two grids side by side, the second in no group: bound, and the panel says it stays in place.

@@ -25,8 +25,8 @@ void Deformer::set_up_on_base(const ProgressCallback& progress) {
   for (std::size_t h = 0; h < on_base.handles.size(); ++h) {
     if (on_base.handles[h].empty() && !constraints_.handles[h].empty()) {
       const std::size_t painted = constraints_.handles[h].size();
-      throw InputError("handle " + std::to_string(h + 1) + " (" + counted(painted, "vertex", "vertices") + ") reaches no vertex of the base mesh (" + std::to_string(multiresolution.base.mesh.vertex_count()) +
-                       " vertices) that the fixed vertices or another handle do not hold already: paint it larger, or solve on "
+      throw InputError("handle " + std::to_string(h + 1) + " (" + counted(painted, "vertex", "vertices") +
+                       ") reaches no vertex of the base mesh (" + std::to_string(multiresolution.base.mesh.vertex_count()) + " vertices) that the fixed vertices or another handle do not hold already: paint it larger, or solve on "
                        "a larger base or exactly");
     }
   }

@@ -10,9 +10,9 @@
 #include <tbb/parallel_invoke.h>
 #include <tbb/parallel_sort.h>
 
-#include "hdeform/counted.h"
 #include "disjoint_sets.h"
 #include "edge_counts.h"
+#include "hdeform/counted.h"
 
 namespace hdeform {
 
@@ -38,7 +38,9 @@ std::vector<std::string> MeshInspection::warnings() const {
                     " (at the same position as another vertex: the mesh is not joined there)");
   }
   if (components > 1) lines.push_back(std::to_string(components) + " connected components");
-  if (unreferenced_vertices > 0) lines.push_back(counted(unreferenced_vertices, "unreferenced vertex", "unreferenced vertices") + " (in no triangle)");
+  if (unreferenced_vertices > 0) {
+    lines.push_back(counted(unreferenced_vertices, "unreferenced vertex", "unreferenced vertices") + " (in no triangle)");
+  }
   return lines;
 }
 
